@@ -1,0 +1,46 @@
+"""The one interface every damping mechanism implements.
+
+A mechanism adds a term to the weak form of the beam equation. Two kinds occur in the paper:
+
+* *viscous* terms, linear in the velocity: a constant matrix :math:`D_m` in
+  :math:`M\\ddot w + (\\sum_m D_m)\\dot w + K w = F` (air, strain rate, spatial hysteresis);
+* *hereditary* terms, a memory integral of the curvature: in the Laplace domain a scalar
+  relaxation transform :math:`\\hat G(s)` times :math:`K_0` that is subtracted from the
+  stiffness, :math:`K \\to EI\\,K_0 - \\hat G(s) K_0` (time hysteresis).
+
+Both come out of the weak form, so the damping moments appear in the free-end conditions as the
+paper requires, without any extra boundary term.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from bayesbeam.physics.assembly import BeamOperators
+
+
+class Mechanism:
+    """Base class: a name, its parameters (the paper's names, SI units) and its contribution."""
+
+    name: str = ""
+    parameters: tuple[str, ...] = ()
+    units: Mapping[str, str] = {}
+    #: parameters with a default value, not sampled unless the user asks
+    defaults: Mapping[str, float] = {}
+    description: str = ""
+
+    def check(self, values: Mapping[str, float]) -> None:
+        """Raise ValueError if the values are not physical (default: all finite and >= 0)."""
+        for key in self.parameters:
+            v = values[key]
+            if not (np.isfinite(v) or (v == np.inf and key in self.defaults)) or v < 0:
+                raise ValueError(f"{self.name}: {key} = {v!r} is not physical (must be finite and >= 0)")
+
+    def damping(self, ops: BeamOperators, values: Mapping[str, float]) -> np.ndarray | None:
+        """Viscous damping matrix D_m (N s/m in generalized coordinates), or None."""
+        return None
+
+    def relaxation(self, values: Mapping[str, float]) -> Callable[[np.ndarray], np.ndarray] | None:
+        """The Laplace transform s -> G(s) (N m^2) of a hereditary kernel, or None."""
+        return None
