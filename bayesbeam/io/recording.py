@@ -1,0 +1,796 @@
+"""Recordings: the typed objects, the checking reader and the atomic writer.
+
+The format is the contract of ``docs/format.md``: a directory holding ``beam.toml``
+(what was tested, how it was instrumented) and a CSV of uniformly sampled signals.
+All quantities are SI; positions are metres from the clamp (x = 0).
+
+The reader either returns a complete :class:`Recording` or raises
+:class:`~bayesbeam.io.errors.RecordingError` naming the file, the key or line, and the fix:
+nothing downstream ever sees a half-checked recording.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+import shutil
+import tomllib
+import uuid
+import warnings
+from dataclasses import dataclass, field, fields, replace
+from datetime import date, datetime, time as clock_time
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+from .errors import RecordingError
+
+KINDS = ("force", "release", "free_decay")
+QUANTITIES = ("acceleration", "velocity", "displacement")
+MAX_TIME_JITTER = 1e-6
+"""Largest accepted relative deviation of any time step from the mean step."""
+DEFAULT_CSV = "recording.csv"
+DEFAULT_TIME_COLUMN = "time"
+
+# Keys that `[excitation]` needs for each kind, besides `kind` itself.
+_EXCITATION_KEYS = {"force": ("location", "column"), "release": ("tip_load",), "free_decay": ("start",)}
+_BEAM_KEYS = ("length", "density", "area", "second_moment", "modulus")
+_TIP_KEYS = ("mass", "rotary_inertia")
+_SENSOR_KEYS = ("name", "location", "quantity", "column")
+_RECORDING_KEYS = ("file", "time_column")
+_KNOWN_TABLES = ("beam", "tip", "excitation", "sensor", "recording")
+
+# What each key holds, for the "Fix:" sentences.
+_MEANING = {
+    "length": "l in m",
+    "density": "rho in kg/m^3",
+    "area": "A in m^2",
+    "second_moment": "I in m^4",
+    "modulus": "nominal E in Pa",
+    "mass": "tip mass m_T in kg",
+    "rotary_inertia": "tip rotary inertia J in kg m^2",
+    "location": "position in m from the clamp",
+    "tip_load": "static tip load in N",
+    "start": "time in s from which no force acts",
+    "kind": '"force", "release" or "free_decay"',
+    "quantity": '"acceleration", "velocity" or "displacement"',
+    "name": "a sensor name",
+    "column": "a CSV column name",
+    "file": "the CSV file name",
+    "time_column": "the CSV column holding the time in s",
+}
+
+
+# --------------------------------------------------------------------------- objects
+
+
+@dataclass(frozen=True)
+class Beam:
+    """Nominal properties of the uniform beam, SI units.
+
+    length: l (m); density: rho (kg/m^3); area: A (m^2); second_moment: I (m^4);
+    modulus: E (Pa), a nominal value that centres the prior on EI, not a known one.
+    """
+
+    length: float
+    density: float
+    area: float
+    second_moment: float
+    modulus: float
+
+    @property
+    def rho_a(self) -> float:
+        """Mass per unit length rho*A, kg/m."""
+        return self.density * self.area
+
+    @property
+    def nominal_EI(self) -> float:
+        """Nominal bending stiffness E*I, N m^2."""
+        return self.modulus * self.second_moment
+
+
+@dataclass(frozen=True)
+class TipBody:
+    """Rigid body at the free end: mass m_T (kg) and rotary inertia J (kg m^2)."""
+
+    mass: float = 0.0
+    rotary_inertia: float = 0.0
+
+
+@dataclass(frozen=True)
+class Excitation:
+    """How the beam was set moving.
+
+    kind "force": a measured point force at ``location`` (x_f, m), in CSV ``column`` (N).
+    kind "release": free decay from the static deflection under ``tip_load`` (N) at t <= 0.
+    kind "free_decay": an unmeasured tap; no force acts from ``start`` (s) on and the
+    state at ``start`` is unknown. Fields that do not belong to the kind are None.
+    """
+
+    kind: str
+    location: float | None = None
+    column: str | None = None
+    tip_load: float | None = None
+    start: float | None = None
+
+
+@dataclass(frozen=True)
+class Sensor:
+    """One measured channel: ``quantity`` at ``location`` (m), held in CSV ``column``.
+
+    quantity is "acceleration" (m/s^2), "velocity" (m/s) or "displacement" (m).
+    """
+
+    name: str
+    location: float
+    quantity: str
+    column: str
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """One test of one beam: description plus uniformly sampled signals.
+
+    time: (n,) s. signals: (n, n_sensors) in SI units, columns in the order of ``sensors``.
+    force: (n,) N, present exactly when ``excitation.kind == "force"``.
+    source: the directory the recording was read from (not compared by ``==``).
+    extra: other top-level TOML entries (e.g. a [notes] table), carried along verbatim.
+
+    The arrays are stored as read-only float64 copies, so a Recording cannot change
+    under a fit that holds it. ``==`` compares every field but ``source``, arrays exactly.
+    """
+
+    beam: Beam
+    tip: TipBody
+    excitation: Excitation
+    sensors: tuple[Sensor, ...]
+    time: np.ndarray
+    signals: np.ndarray
+    force: np.ndarray | None = None
+    source: Path | None = field(default=None, compare=False)
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        set_field = partial(object.__setattr__, self)  # frozen: only the base setter may assign
+        set_field("sensors", tuple(self.sensors))
+        set_field("time", _frozen_array(self.time))
+        set_field("signals", _frozen_array(self.signals))
+        if self.force is not None:
+            set_field("force", _frozen_array(self.force))
+        self._check_shapes()
+        reserved = set(_KNOWN_TABLES) & set(self.extra)
+        if reserved:
+            raise ValueError(f"extra must not hold the format's own tables: {sorted(reserved)}")
+
+    def _check_shapes(self):
+        n = self.time.shape[0] if self.time.ndim == 1 else -1
+        if n < 2:
+            raise ValueError(f"time must be 1-D with at least 2 samples, got shape {self.time.shape}")
+        if self.signals.shape != (n, len(self.sensors)):
+            raise ValueError(
+                f"signals must have shape (n_samples, n_sensors) = {(n, len(self.sensors))}, "
+                f"got {self.signals.shape}"
+            )
+        if (self.excitation.kind == "force") != (self.force is not None):
+            raise ValueError('force must be given exactly when excitation.kind == "force"')
+        if self.force is not None and self.force.shape != (n,):
+            raise ValueError(f"force must have shape ({n},), got {self.force.shape}")
+
+    def __eq__(self, other):
+        if not isinstance(other, Recording):
+            return NotImplemented
+        return all(
+            _same(getattr(self, f.name), getattr(other, f.name)) for f in fields(self) if f.compare
+        )
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples n."""
+        return self.time.shape[0]
+
+    @property
+    def dt(self) -> float:
+        """Sampling step, s: the mean step over the record, which is robust to printed rounding."""
+        return float(self.time[-1] - self.time[0]) / (self.n_samples - 1)
+
+    @property
+    def fs(self) -> float:
+        """Sampling rate 1/dt, Hz."""
+        return 1.0 / self.dt
+
+    def sensor_index(self, name: str) -> int:
+        """Column of ``signals`` holding sensor ``name``; KeyError listing the names if absent."""
+        for i, sensor in enumerate(self.sensors):
+            if sensor.name == name:
+                return i
+        known = ", ".join(repr(s.name) for s in self.sensors)
+        raise KeyError(f"no sensor named {name!r}; this recording has {known}")
+
+    def with_signals(self, signals) -> Recording:
+        """A copy with ``signals`` (shape (n_samples, n_sensors)) in place of the measured ones."""
+        return replace(self, signals=signals)
+
+
+def _frozen_array(values) -> np.ndarray:
+    # Copy before freezing so the caller's own array stays writable.
+    array = np.array(values, dtype=np.float64)
+    array.setflags(write=False)
+    return array
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return a is not None and b is not None and np.array_equal(a, b)
+    return a == b
+
+
+# --------------------------------------------------------------------------- reading beam.toml
+
+
+def load_recording(path: str | os.PathLike) -> Recording:
+    """Read and check a recording: its directory, or the path of its ``beam.toml``.
+
+    ``[tip]`` may be omitted (no tip body), as may its keys (0.0). ``[recording]`` may be
+    omitted, as may its keys: ``file`` defaults to "recording.csv", ``time_column`` to "time".
+    Keys this reader does not use inside the format's own tables are ignored with a
+    warning (they are usually typos); other top-level tables go to ``Recording.extra``.
+
+    Raises RecordingError for anything the format refuses (see docs/format.md).
+    """
+    toml_path = _toml_path(Path(path))
+    doc = _read_toml(toml_path)
+    beam = _read_beam(doc, toml_path)
+    tip = _read_tip(doc, toml_path)
+    excitation = _read_excitation(doc, toml_path, beam.length)
+    sensors = _read_sensors(doc, toml_path, beam.length)
+    csv_name, time_column = _read_recording_table(doc, toml_path)
+    _check_distinct_columns(toml_path, excitation, sensors, time_column)
+    table = _read_csv(toml_path.parent / csv_name)
+    _check_columns_present(toml_path, table, excitation, sensors, time_column, csv_name)
+    time = table.column(time_column)
+    _check_time(table, time_column, time)
+    _check_start(toml_path, excitation, time)
+    force = table.column(excitation.column) if excitation.kind == "force" else None
+    signals = np.column_stack([table.column(s.column) for s in sensors])
+    extra = {key: value for key, value in doc.items() if key not in _KNOWN_TABLES}
+    return Recording(beam, tip, excitation, sensors, time, signals, force, toml_path.parent, extra)
+
+
+def _toml_path(path: Path) -> Path:
+    # A path that is neither a file nor named *.toml is taken for the directory.
+    toml_path = path if path.is_file() or path.suffix == ".toml" else path / "beam.toml"
+    if not toml_path.is_file():
+        raise RecordingError(
+            toml_path, "file", "no such file",
+            "pass a recording directory that holds beam.toml, or the path of beam.toml itself.",
+        )
+    return toml_path
+
+
+def _read_toml(file: Path) -> dict:
+    try:
+        # utf-8-sig: some Windows editors start a text file with a byte-order mark.
+        return tomllib.loads(file.read_bytes().decode("utf-8-sig"))
+    except UnicodeDecodeError as err:
+        raise RecordingError(
+            file, "file", f"not UTF-8 text ({err.reason})", "save beam.toml as UTF-8."
+        ) from err
+    except tomllib.TOMLDecodeError as err:
+        # tomllib ends its message with "(at line L, column C)" or "(at end of document)".
+        match = re.fullmatch(r"(.*) \(at (.*)\)", str(err))
+        problem, where = match.groups() if match else (str(err), "TOML syntax")
+        raise RecordingError(
+            file, where, f"invalid TOML: {problem}",
+            'correct the syntax there (key = value, strings in "double quotes", tables as [name]).',
+        ) from err
+
+
+def _table(doc: dict, name: str, file: Path, *, required: bool) -> dict:
+    if name not in doc:
+        if required:
+            raise RecordingError(
+                file, f"[{name}]", "table missing", f"add a [{name}] table as in docs/format.md."
+            )
+        return {}
+    if not isinstance(doc[name], dict):
+        raise RecordingError(
+            file, f"[{name}]", "is not a table", f"write [{name}] as a table header followed by its keys."
+        )
+    return doc[name]
+
+
+def _number(table: dict, key: str, label: str, file: Path, default: float | None = None) -> float:
+    """The finite number ``table[key]``; ``default`` when absent, unless that is None."""
+    where = f"{label} .{key}"
+    if key not in table:
+        if default is not None:
+            return default
+        raise RecordingError(file, where, "missing", f"add `{key} = <{_MEANING[key]}>` to {label}.")
+    value = table[key]
+    # bool is an int subclass in Python, but `true` is not a length.
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise RecordingError(
+            file, where, f"{value!r} is not a number", f"write {key} as a bare number ({_MEANING[key]})."
+        )
+    try:
+        value = float(value)
+    except OverflowError:
+        value = math.inf
+    if not math.isfinite(value):
+        raise RecordingError(
+            file, where, f"{table[key]!r} is not finite", f"give {key} a finite value ({_MEANING[key]})."
+        )
+    return value
+
+
+def _text(table: dict, key: str, label: str, file: Path, default: str | None = None) -> str:
+    """The non-empty string ``table[key]``; ``default`` when absent, unless that is None."""
+    where = f"{label} .{key}"
+    if key not in table:
+        if default is not None:
+            return default
+        raise RecordingError(file, where, "missing", f"add `{key} = <{_MEANING[key]}>` to {label}.")
+    value = table[key]
+    if not isinstance(value, str) or not value:
+        raise RecordingError(
+            file, where, f"{value!r} is not a non-empty string",
+            f'write {key} as a quoted string ({_MEANING[key]}), e.g. {key} = "...".',
+        )
+    return value
+
+
+def _choice(table: dict, key: str, label: str, file: Path, choices: tuple[str, ...]) -> str:
+    value = _text(table, key, label, file)
+    if value not in choices:
+        raise RecordingError(
+            file, f"{label} .{key}", f"unknown {key} {value!r}", f"set {key} to {_MEANING[key]}."
+        )
+    return value
+
+
+def _within_beam(value: float, where: str, file: Path, length: float) -> float:
+    if not 0.0 <= value <= length:
+        raise RecordingError(
+            file, where, f"{value!r} m is outside the beam [0, {length!r}] m",
+            f"give a position between 0 and the length {length!r} m, measured from the clamp.",
+        )
+    return value
+
+
+def _warn_unused(table: dict, used: tuple[str, ...], label: str, file: Path, why: str = "") -> None:
+    # Not refused: the format carries unknown content along. Warned: a typo such as
+    # `mas = 0.05` in [tip] would otherwise silently mean "no tip mass".
+    for key in table:
+        if key not in used:
+            reason = why or f"{label} uses only {', '.join(used)}"
+            warnings.warn(f"{file}: {label} .{key}: ignored ({reason})", stacklevel=2)
+
+
+def _read_beam(doc: dict, file: Path) -> Beam:
+    table = _table(doc, "beam", file, required=True)
+    values = {key: _number(table, key, "[beam]", file) for key in _BEAM_KEYS}
+    for key, value in values.items():
+        if value <= 0.0:
+            raise RecordingError(
+                file, f"[beam] .{key}", f"{value!r} is not positive",
+                f"give {key} a positive value ({_MEANING[key]}).",
+            )
+    _warn_unused(table, _BEAM_KEYS, "[beam]", file)
+    return Beam(**values)
+
+
+def _read_tip(doc: dict, file: Path) -> TipBody:
+    table = _table(doc, "tip", file, required=False)
+    values = {key: _number(table, key, "[tip]", file, default=0.0) for key in _TIP_KEYS}
+    for key, value in values.items():
+        if value < 0.0:
+            raise RecordingError(
+                file, f"[tip] .{key}", f"{value!r} is negative",
+                f"give {key} a value >= 0 ({_MEANING[key]}), or 0 for no tip body.",
+            )
+    _warn_unused(table, _TIP_KEYS, "[tip]", file)
+    return TipBody(**values)
+
+
+def _read_excitation(doc: dict, file: Path, length: float) -> Excitation:
+    label = "[excitation]"
+    table = _table(doc, "excitation", file, required=True)
+    kind = _choice(table, "kind", label, file, KINDS)
+    if kind == "force":
+        location = _number(table, "location", label, file)
+        values = {
+            "location": _within_beam(location, f"{label} .location", file, length),
+            "column": _text(table, "column", label, file),
+        }
+    elif kind == "release":
+        values = {"tip_load": _number(table, "tip_load", label, file)}
+    else:
+        values = {"start": _number(table, "start", label, file)}
+    used = ("kind", *_EXCITATION_KEYS[kind])
+    _warn_unused(table, used, label, file, why=f'kind = "{kind}" uses only {", ".join(used)}')
+    return Excitation(kind=kind, **values)
+
+
+def _read_sensors(doc: dict, file: Path, length: float) -> tuple[Sensor, ...]:
+    tables = doc.get("sensor")
+    if isinstance(tables, dict):
+        raise RecordingError(
+            file, "[sensor]", "a single [sensor] table",
+            "write each channel as a [[sensor]] table (double brackets).",
+        )
+    if not isinstance(tables, list) or not tables:
+        raise RecordingError(
+            file, "[[sensor]]", "no sensor table",
+            "add one [[sensor]] table per measured channel with name, location, quantity and column.",
+        )
+    sensors = tuple(
+        _read_sensor(table, f"[[sensor]] #{i}", file, length) for i, table in enumerate(tables, 1)
+    )
+    for i, sensor in enumerate(sensors, 1):
+        if sensor.name in (s.name for s in sensors[: i - 1]):
+            raise RecordingError(
+                file, f"[[sensor]] #{i} .name", f"sensor name {sensor.name!r} is used twice",
+                "give every [[sensor]] a distinct name.",
+            )
+    return sensors
+
+
+def _read_sensor(table, label: str, file: Path, length: float) -> Sensor:
+    if not isinstance(table, dict):
+        raise RecordingError(file, label, "is not a table", "write the sensor as a [[sensor]] table.")
+    location = _number(table, "location", label, file)
+    sensor = Sensor(
+        name=_text(table, "name", label, file),
+        location=_within_beam(location, f"{label} .location", file, length),
+        quantity=_choice(table, "quantity", label, file, QUANTITIES),
+        column=_text(table, "column", label, file),
+    )
+    _warn_unused(table, _SENSOR_KEYS, label, file)
+    return sensor
+
+
+def _read_recording_table(doc: dict, file: Path) -> tuple[str, str]:
+    table = _table(doc, "recording", file, required=False)
+    csv_name = _text(table, "file", "[recording]", file, default=DEFAULT_CSV)
+    time_column = _text(table, "time_column", "[recording]", file, default=DEFAULT_TIME_COLUMN)
+    _warn_unused(table, _RECORDING_KEYS, "[recording]", file)
+    return csv_name, time_column
+
+
+def _check_distinct_columns(file: Path, excitation: Excitation, sensors, time_column: str) -> None:
+    # Two channels read from one column would count the same data twice in a likelihood.
+    owners = {time_column: "[recording] .time_column"}
+    claims = [(f"[[sensor]] #{i} .column", s.column) for i, s in enumerate(sensors, 1)]
+    if excitation.kind == "force":
+        claims.insert(0, ("[excitation] .column", excitation.column))
+    for where, column in claims:
+        if column in owners:
+            raise RecordingError(
+                file, where, f"column {column!r} is already read by {owners[column]}",
+                "give every channel its own CSV column.",
+            )
+        owners[column] = where
+
+
+def _check_columns_present(file: Path, table, excitation, sensors, time_column: str, csv_name: str) -> None:
+    wanted = [("[recording] .time_column", time_column)]
+    if excitation.kind == "force":
+        wanted.append(("[excitation] .column", excitation.column))
+    wanted += [(f"[[sensor]] #{i} .column", s.column) for i, s in enumerate(sensors, 1)]
+    for where, column in wanted:
+        if column not in table.header:
+            raise RecordingError(
+                file, where, f"{csv_name} has no column {column!r} (its columns: {', '.join(table.header)})",
+                f"name one of those columns here, or add a {column!r} column to {csv_name}.",
+            )
+
+
+def _check_start(file: Path, excitation: Excitation, time: np.ndarray) -> None:
+    if excitation.kind != "free_decay":
+        return
+    first, last = float(time[0]), float(time[-1])
+    if not first <= excitation.start < last:
+        raise RecordingError(
+            file, "[excitation] .start",
+            f"{excitation.start!r} s is outside the record, which runs from {first!r} to {last!r} s",
+            "set start to the time (s) from which no force acts; the record must continue after it.",
+        )
+
+
+# --------------------------------------------------------------------------- reading the CSV
+
+
+@dataclass(frozen=True)
+class _CsvTable:
+    """The cells of a recording CSV, kept as text until a column is asked for."""
+
+    path: Path
+    header: tuple[str, ...]
+    rows: list[list[str]]
+    lines: list[int]  # 1-based line number of each row; the header is line 1
+
+    def column(self, name: str) -> np.ndarray:
+        """The finite float64 values of column ``name``, or RecordingError at the first bad cell."""
+        j = self.header.index(name)
+        cells = [row[j] for row in self.rows]
+        try:
+            values = np.fromiter(map(float, cells), dtype=np.float64, count=len(cells))
+        except ValueError:
+            raise self._unparsable(name, cells) from None
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            i = bad[0]
+            what = "NaN" if np.isnan(values[i]) else "an infinite value"
+            raise RecordingError(
+                self.path, f'line {self.lines[i]}, column "{name}"', f"{cells[i].strip()!r} is {what}",
+                "replace the bad sample or trim the record so that it excludes it.",
+            )
+        return values
+
+    def _unparsable(self, name: str, cells: list[str]) -> RecordingError:
+        """The error for the first cell of ``cells`` that float() refuses."""
+        line, cell = next((line, cell) for line, cell in zip(self.lines, cells) if not _is_float(cell))
+        problem = "empty cell" if not cell.strip() else f"{cell!r} is not a number"
+        return RecordingError(
+            self.path, f'line {line}, column "{name}"', problem,
+            "write a plain decimal number there (e.g. 0.0125 or 1.25e-2, '.' as decimal point), "
+            "or trim the record to the rows where every channel has a value.",
+        )
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_csv(path: Path) -> _CsvTable:
+    if not path.is_file():
+        raise RecordingError(
+            path, "file", "no such file",
+            "put the CSV next to beam.toml, or correct [recording] file in beam.toml.",
+        )
+    try:
+        # utf-8-sig: spreadsheet programs often start a CSV with a byte-order mark.
+        with path.open(newline="", encoding="utf-8-sig") as stream:
+            reader = csv.reader(stream)
+            try:
+                header = _read_header(path, reader)
+                rows, lines = _read_rows(path, reader, len(header))
+            except csv.Error as err:
+                raise RecordingError(
+                    path, f"line {reader.line_num}", f"malformed CSV ({err})",
+                    "write plain comma-separated values there.",
+                ) from None
+    except UnicodeDecodeError as err:
+        raise RecordingError(
+            path, "file", f"not UTF-8 text ({err.reason})", "save the CSV as UTF-8."
+        ) from None
+    if len(rows) < 2:
+        raise RecordingError(
+            path, "file", f"{len(rows)} data row(s); at least 2 samples are needed",
+            "supply the full record: one header line, then one row per sample.",
+        )
+    return _CsvTable(path, header, rows, lines)
+
+
+def _read_header(path: Path, reader) -> tuple[str, ...]:
+    row = next(reader, None)
+    if not row:
+        raise RecordingError(
+            path, "line 1", "no header line",
+            "start the file with a header naming the columns, e.g. time,accel_tip.",
+        )
+    header = tuple(name.strip() for name in row)
+    for j, name in enumerate(header):
+        if name in header[:j]:
+            raise RecordingError(
+                path, f'line 1, column "{name}"', "column name used twice", "give every column its own name."
+            )
+    return header
+
+
+def _read_rows(path: Path, reader, width: int) -> tuple[list[list[str]], list[int]]:
+    rows, lines, blank_line = [], [], None
+    for row in reader:
+        if not row:
+            blank_line = blank_line or reader.line_num  # trailing blank lines are harmless
+            continue
+        if blank_line is not None:
+            raise RecordingError(
+                path, f"line {blank_line}", "blank line inside the data", "delete the blank line."
+            )
+        if len(row) != width:
+            raise RecordingError(
+                path, f"line {reader.line_num}", f"{len(row)} cells where the header names {width} columns",
+                "give every row exactly one value per header column.",
+            )
+        rows.append(row)
+        lines.append(reader.line_num)
+    return rows, lines
+
+
+def _check_time(table: _CsvTable, name: str, time: np.ndarray) -> None:
+    """Refuse a time column that is not strictly increasing or not uniform (MAX_TIME_JITTER)."""
+    steps = np.diff(time)
+    falls = np.flatnonzero(steps <= 0.0)
+    if falls.size:
+        k = falls[0] + 1
+        raise RecordingError(
+            table.path, f'line {table.lines[k]}, column "{name}"',
+            f"time {float(time[k])!r} s does not increase on the previous sample ({float(time[k - 1])!r} s)",
+            "sort the rows by time and remove repeated samples.",
+        )
+    dt = (time[-1] - time[0]) / (time.size - 1)
+    jitter = np.abs(steps - dt) / dt
+    if jitter.max() > MAX_TIME_JITTER:
+        # Name the worst step: a dropped sample shifts the mean step, so the first step
+        # over the limit can lie far before the gap that causes it.
+        k = int(np.argmax(jitter)) + 1
+        uneven = np.count_nonzero(jitter > MAX_TIME_JITTER)
+        raise RecordingError(
+            table.path, f'line {table.lines[k]}, column "{name}"',
+            f"the step to here, {float(steps[k - 1])!r} s, differs from the mean step {float(dt)!r} s "
+            f"by {jitter[k - 1]:.3g} relative, the worst of {uneven} steps over the limit {MAX_TIME_JITTER:g}",
+            "resample the record onto a uniform time grid (no gaps), or print the time with more digits.",
+        )
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def write_recording(rec: Recording, out_dir: str | os.PathLike, *, overwrite: bool = False) -> Path:
+    """Write ``rec`` as ``out_dir/beam.toml`` and ``out_dir/recording.csv``; return ``out_dir``.
+
+    Atomic: both files are written into a hidden directory next to ``out_dir``, which is then
+    renamed into place, so a reader never sees half a recording. An existing non-empty
+    ``out_dir`` is refused (FileExistsError) unless ``overwrite``; then it is replaced as a
+    whole (files in it that are not part of the recording, e.g. truth.json, are dropped).
+    Numbers are printed with repr(), so reading the result back gives identical arrays.
+    """
+    out_dir = Path(os.path.abspath(out_dir))
+    _check_target(out_dir, overwrite)
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    columns = _csv_columns(rec)
+    staging = _sibling(out_dir, "tmp")
+    # os.mkdir rather than tempfile.mkdtemp: mkdtemp's 0700 mode would survive the rename.
+    staging.mkdir()
+    try:
+        (staging / "beam.toml").write_text(_beam_toml(rec, columns[0]), encoding="utf-8")
+        _write_csv(staging / DEFAULT_CSV, rec, columns)
+        _move_into_place(staging, out_dir)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return out_dir
+
+
+def _check_target(out_dir: Path, overwrite: bool) -> None:
+    if out_dir.exists() and not out_dir.is_dir():
+        raise FileExistsError(f"{out_dir}: exists and is not a directory. Fix: choose another output path.")
+    if out_dir.is_dir() and any(out_dir.iterdir()) and not overwrite:
+        raise FileExistsError(
+            f"{out_dir}: directory exists and is not empty. "
+            "Fix: choose a new directory, or pass overwrite=True."
+        )
+
+
+def _sibling(out_dir: Path, purpose: str) -> Path:
+    # Same parent directory, hence same file system, so the final rename is atomic.
+    return out_dir.with_name(f".{out_dir.name}.{uuid.uuid4().hex[:12]}.{purpose}")
+
+
+def _move_into_place(staging: Path, out_dir: Path) -> None:
+    if not out_dir.exists():
+        os.replace(staging, out_dir)
+        return
+    # An existing directory cannot be renamed over portably: set it aside first, and put
+    # it back if the rename fails, so out_dir always holds a complete recording.
+    old = _sibling(out_dir, "old")
+    os.replace(out_dir, old)
+    try:
+        os.replace(staging, out_dir)
+    except BaseException:
+        os.replace(old, out_dir)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _csv_columns(rec: Recording) -> list[str]:
+    """Column names: time first, then force (kind "force"), then the sensors in order."""
+    channels = [s.column for s in rec.sensors]
+    if rec.force is not None:
+        channels.insert(0, rec.excitation.column)
+    if len(set(channels)) != len(channels):
+        raise ValueError(f"two channels share a CSV column: {channels}")
+    time_column = DEFAULT_TIME_COLUMN
+    while time_column in channels:  # a channel may itself be called "time"
+        time_column += "_s"
+    return [time_column, *channels]
+
+
+def _write_csv(path: Path, rec: Recording, columns: list[str]) -> None:
+    blocks = [rec.time[:, None], rec.signals]
+    if rec.force is not None:
+        blocks.insert(1, rec.force[:, None])
+    with path.open("w", newline="", encoding="utf-8") as stream:
+        csv.writer(stream, lineterminator="\n").writerow(columns)
+        # repr() is the shortest text that reads back to the same float: exact round trip.
+        stream.writelines(",".join(map(repr, row)) + "\n" for row in np.hstack(blocks).tolist())
+
+
+def _beam_toml(rec: Recording, time_column: str) -> str:
+    scalars = {key: value for key, value in rec.extra.items() if not isinstance(value, dict)}
+    tables = {key: value for key, value in rec.extra.items() if isinstance(value, dict)}
+    lines = ["# Recording description; the format is documented in docs/format.md."]
+    lines += _toml_pairs(scalars)  # top-level keys must precede every table header
+    lines += _toml_table(["beam"], {key: getattr(rec.beam, key) for key in _BEAM_KEYS})
+    lines += _toml_table(["tip"], {key: getattr(rec.tip, key) for key in _TIP_KEYS})
+    lines += _toml_table(["excitation"], _excitation_keys(rec.excitation))
+    for sensor in rec.sensors:
+        lines += ["", "[[sensor]]", *_toml_pairs({key: getattr(sensor, key) for key in _SENSOR_KEYS})]
+    lines += _toml_table(["recording"], {"file": DEFAULT_CSV, "time_column": time_column})
+    for key, table in tables.items():
+        lines += _toml_table([key], table)
+    return "\n".join(lines) + "\n"
+
+
+def _excitation_keys(excitation: Excitation) -> dict:
+    values = {"kind": excitation.kind}
+    for key in _EXCITATION_KEYS[excitation.kind]:
+        values[key] = getattr(excitation, key)
+        if values[key] is None:
+            raise ValueError(f'excitation kind "{excitation.kind}" needs {key}, which is None')
+    return values
+
+
+def _toml_table(path: list[str], table: dict) -> list[str]:
+    """``[a.b]`` followed by its key = value lines, then its sub-tables."""
+    lines = ["", "[" + ".".join(map(_toml_key, path)) + "]"]
+    lines += _toml_pairs({key: value for key, value in table.items() if not isinstance(value, dict)})
+    for key, value in table.items():
+        if isinstance(value, dict):
+            lines += _toml_table([*path, key], value)
+    return lines
+
+
+def _toml_pairs(table: dict) -> list[str]:
+    return [f"{_toml_key(key)} = {_toml_value(value)}" for key, value in table.items()]
+
+
+def _toml_key(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _toml_string(key)
+
+
+def _toml_value(value) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (int, np.integer)):
+        return str(int(value))
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))  # e.g. 5.6250000000000006e-11, inf, nan: all valid TOML
+    if isinstance(value, str):
+        return _toml_string(value)
+    if isinstance(value, (datetime, date, clock_time)):
+        return value.isoformat()
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(map(_toml_value, value)) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    raise TypeError(f"cannot write {type(value).__name__} value {value!r} to TOML")
+
+
+_TOML_ESCAPES = {code: f"\\u{code:04X}" for code in [*range(0x20), 0x7F]} | {
+    ord("\\"): "\\\\", ord('"'): '\\"', ord("\b"): "\\b", ord("\t"): "\\t",
+    ord("\n"): "\\n", ord("\f"): "\\f", ord("\r"): "\\r",
+}
+
+
+def _toml_string(text: str) -> str:
+    """A TOML basic string: quotes, backslashes and control characters escaped."""
+    return '"' + text.translate(_TOML_ESCAPES) + '"'
