@@ -83,24 +83,44 @@ class SecondOrderSystem:
     def transfer(self, s: np.ndarray, C: np.ndarray, B: np.ndarray) -> np.ndarray:
         """C Z(s)^-1 B for every s: array (len(s), n_out, n_in) (m/N for displacement rows)."""
         s = np.asarray(s, dtype=complex)
+        shape = (s.size, C.shape[0], B.shape[1])
         if self.form == "complex":
-            poles, left, right = self._complex_modes(C, B)
-            cauchy = 1.0 / (s[:, None] - poles[None, :])
-            return np.einsum("fj,oj,ji->foi", cauchy, left, right, optimize=True)
-        lam, phi = self.undamped
+            return self._transfer_complex(s, C, B).reshape(shape)
+        phi = self.undamped[1]
         cphi, phib = C @ phi, phi.T @ B
         if self.form == "diagonal":
-            inv_den = 1.0 / self._diagonal_denominator(s)
-            return np.einsum("fm,om,mi->foi", inv_den, cphi, phib, optimize=True)
+            weights = (cphi[:, :, None] * phib[None, :, :]).transpose(1, 0, 2).reshape(self.size, -1)
+            return (self._inverse_denominator(s) @ weights).reshape(shape)
         z = self._modal_dynamic_stiffness(s)
         return np.einsum("om,fmi->foi", cphi, np.linalg.solve(z, np.broadcast_to(phib, (s.size,) + phib.shape)))
 
-    def _diagonal_denominator(self, s: np.ndarray) -> np.ndarray:
-        lam = self.undamped[0]
-        den = s[:, None] ** 2 + s[:, None] * np.diag(self._modal(self.D))[None, :] + lam[None, :]
+    def _inverse_denominator(self, s: np.ndarray) -> np.ndarray:
+        """1/(s^2 + c_m s + k_m - G(s) h_m) per mode: array (len(s), n). In place: this is the hot loop."""
+        den = np.multiply.outer(s, np.diag(self._modal(self.D)).astype(complex))
+        den += (s * s)[:, None]
+        den += self.undamped[0]
         if self.relaxation is not None:
-            den = den - self.relaxation(s)[:, None] * np.diag(self._modal(self.K_h))[None, :]
-        return den
+            den -= np.multiply.outer(self.relaxation(s), np.diag(self._modal(self.K_h)))
+        return np.reciprocal(den, out=den)
+
+    def _transfer_complex(self, s: np.ndarray, C: np.ndarray, B: np.ndarray) -> np.ndarray:
+        """Sum over complex modes, conjugate pairs folded into real second-order sections.
+
+        R/(s-p) + conj(R)/(s-conj(p)) = (2 Re(R) s - 2 Re(R conj(p))) / (s^2 - 2 Re(p) s + |p|^2).
+        """
+        poles, left, right = self._complex_modes(C, B)
+        res = (left.T[:, :, None] * right[:, None, :]).reshape(poles.size, -1)
+        upper = poles.imag > 1e-12 * np.abs(poles)
+        real = np.abs(poles.imag) <= 1e-12 * np.abs(poles)
+        p, r = poles[upper], res[upper]
+        den = np.multiply.outer(s, -2 * p.real + 0j)
+        den += (s * s)[:, None]
+        den += np.abs(p) ** 2
+        np.reciprocal(den, out=den)
+        out = s[:, None] * (den @ (2 * r.real)) + den @ (-2 * (r * p.conj()[:, None]).real)
+        if np.any(real):
+            out += (1.0 / (s[:, None] - poles[real].real[None, :])) @ res[real].real
+        return out
 
     def _modal_dynamic_stiffness(self, s: np.ndarray) -> np.ndarray:
         lam = self.undamped[0]
