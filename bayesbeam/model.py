@@ -96,7 +96,8 @@ class BeamModel:
                              f"it takes {sorted(known)}")
         missing = [p for p in self.parameter_names if p not in params]
         if missing:
-            raise ValueError(f"model {self.name} needs parameter(s) {missing}")
+            listed = ", ".join(f"{p} ({self.units[p]})" for p in missing)
+            raise ValueError(f"model {self.name} needs parameter(s) {listed}")
         out = {k: float(v) for k, v in params.items()}
         for m in self.mechanisms:
             for key, default in m.defaults.items():

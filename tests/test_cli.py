@@ -1,0 +1,73 @@
+"""The command line: simulate writes a loadable recording; bad input exits 2 with a fix."""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from bayesbeam import load_recording
+from bayesbeam.cli import main
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+Q3 = ["--model", "q3", "--set", "EI=44.28", "--set", "gamma=0.12", "--set", "a=0.025", "--set", "b=0.18"]
+
+
+def test_simulate_writes_a_recording_and_prints_modes(tmp_path, capsys):
+    out = tmp_path / "sim"
+    assert main(["simulate", str(DATA / "examples" / "paper_q3_hammer"), *Q3, "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "3.685" in printed and "wrote" in printed
+    sim, src = load_recording(out), load_recording(DATA / "examples" / "paper_q3_hammer")
+    np.testing.assert_array_equal(sim.time, src.time)
+    np.testing.assert_array_equal(sim.force, src.force)
+    assert sim.extra["simulation"]["model"] == "air+spatial_hysteresis"
+
+
+def test_noise_is_reproducible_with_a_seed(tmp_path):
+    rec = str(DATA / "examples" / "alu_q1_release")
+    args = ["--model", "q1", "--set", "EI=3.9375", "--set", "gamma=0.18", "--set", "cdI=5.5e-6",
+            "--noise", "0.02", "--seed", "7"]
+    for name in ("a", "b"):
+        assert main(["simulate", rec, *args, "--out", str(tmp_path / name)]) == 0
+    a, b = load_recording(tmp_path / "a"), load_recording(tmp_path / "b")
+    np.testing.assert_array_equal(a.signals, b.signals)
+
+
+def test_free_decay_simulation_starts_from_the_recorded_state(tmp_path):
+    rec = str(DATA / "real" / "ds4-cantilever-freedecay" / "recording")
+    args = ["--model", "q1", "--set", "EI=95.5", "--set", "gamma=0.05", "--set", "cdI=2e-5"]
+    assert main(["simulate", rec, *args, "--n-intervals", "8", "--out", str(tmp_path / "s")]) == 0
+    assert load_recording(tmp_path / "s").n_samples == 81920
+
+
+def test_missing_parameter_exits_2_naming_it(tmp_path, capsys):
+    code = main(["simulate", str(DATA / "examples" / "paper_q3_hammer"), "--model", "q3",
+                 "--out", str(tmp_path / "x")])
+    assert code == 2
+    assert "gamma (N s/m^2)" in capsys.readouterr().err
+
+
+def test_bad_set_syntax_exits_2(tmp_path, capsys):
+    code = main(["simulate", str(DATA / "examples" / "paper_q3_hammer"), "--set", "EI:44",
+                 "--out", str(tmp_path / "x")])
+    assert code == 2
+    assert "NAME=VALUE" in capsys.readouterr().err
+
+
+def test_existing_output_is_not_overwritten(tmp_path, capsys):
+    out = tmp_path / "sim"
+    out.mkdir()
+    (out / "keep.txt").write_text("x")
+    code = main(["simulate", str(DATA / "examples" / "paper_q3_hammer"), *Q3, "--out", str(out)])
+    assert code == 2 and (out / "keep.txt").exists()
+
+
+def test_bad_recording_exits_2(tmp_path, capsys):
+    code = main(["simulate", str(tmp_path), "--out", str(tmp_path / "x")])
+    assert code == 2
+    assert "Fix" in capsys.readouterr().err
+
+
+def test_console_script_runs():
+    done = subprocess.run([sys.executable, "-m", "bayesbeam.cli", "--version"], capture_output=True, text=True)
+    assert done.returncode == 0 and "bayesbeam" in done.stdout
