@@ -20,8 +20,8 @@ from bayesbeam.io import Recording
 from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics.basis import SplineBasis
 from bayesbeam.physics.mechanisms import resolve
-from bayesbeam.response.linear import (ORDERS, STOPBAND, FrequencyGrid, force_response,
-                                       release_response)
+from bayesbeam.response.linear import (ORDERS, STOPBAND, FrequencyGrid, drive_spectrum,
+                                       force_spectrum, release_spectrum, respond, static_offset)
 from bayesbeam.response.signals import impact_window
 from bayesbeam.response.system import SecondOrderSystem
 
@@ -56,6 +56,7 @@ class BeamModel:
         self.orders = np.array([ORDERS[s.quantity] for s in recording.sensors])
         self.grid = FrequencyGrid(recording.n_samples, recording.dt)
         self.force = self._conditioned_force(force_window)
+        self.load, self.drive = self._input()
 
     @classmethod
     def from_recording(cls, recording: Recording, mechanisms="q1", n_intervals: int = 16,
@@ -158,11 +159,10 @@ class BeamModel:
                                  "initial= (coefficients of free_decay_basis, e.g. from fit_initial)")
             return self.free_decay_basis(params) @ np.asarray(initial, dtype=float)
         system = self.system(params)
-        if exc.kind == "force":
-            load = self.ops.rows([exc.location])[0]
-            return force_response(system, self.grid, self.rows, self.orders, load, self.force)
-        return release_response(system, self.grid, self.rows, self.orders, self.ops.tip_value,
-                                exc.tip_load, t0=float(self.recording.time[0]))
+        y = respond(system, self.grid, self.rows, self.load, self.drive)
+        if exc.kind == "release":
+            y += static_offset(system, self.rows, self.orders, self.load, exc.tip_load)[None, :]
+        return y
 
     @cached_property
     def fit_mask(self) -> np.ndarray:
@@ -208,6 +208,19 @@ class BeamModel:
         return coef
 
     # ------------------------------------------------------------------ input
+    def _input(self):
+        """Load vector and the parameter-free drive spectrum (computed once per model)."""
+        exc = self.recording.excitation
+        if exc.kind == "force":
+            load = self.ops.rows([exc.location])[0]
+            spectrum = force_spectrum(self.grid, self.force)
+        elif exc.kind == "release":
+            load = self.ops.tip_value
+            spectrum = release_spectrum(self.grid, exc.tip_load, t0=float(self.recording.time[0]))
+        else:
+            return None, None
+        return load, drive_spectrum(self.grid, self.orders, spectrum)
+
     def _conditioned_force(self, force_window: bool | None) -> np.ndarray | None:
         rec = self.recording
         if rec.excitation.kind != "force":

@@ -110,16 +110,47 @@ class FrequencyGrid:
         return x / self.damp.reshape((-1,) + (1,) * (x.ndim - 1))
 
 
-def output_transfer(system: SecondOrderSystem, grid: FrequencyGrid, rows: np.ndarray,
-                    orders, inputs: np.ndarray) -> np.ndarray:
-    """Band-limited transfer from inputs to outputs: array (n_freq, n_out, n_in).
+def drive_spectrum(grid: FrequencyGrid, orders, input_spectrum: np.ndarray) -> np.ndarray:
+    """Parameter-free factor of every output: s^q W(w) U(s), array (n_freq, n_out).
 
-    ``rows`` (n_out, n_dof) are displacement rows; ``orders`` the time-derivative order of each
-    output (0, 1, 2 for displacement, velocity, acceleration).
+    ``orders`` holds each output's time-derivative order (0, 1, 2 for displacement, velocity,
+    acceleration) and ``input_spectrum`` the windowed input spectrum on the grid.
     """
-    h = system.transfer(grid.s, rows, inputs)
-    power = grid.s[:, None] ** np.asarray(orders)[None, :]
-    return h * (power * grid.weight[:, None])[:, :, None]
+    powers = np.stack([grid.s**q for q in orders], axis=1)
+    return powers * (grid.weight * input_spectrum)[:, None]
+
+
+def force_spectrum(grid: FrequencyGrid, force: np.ndarray) -> np.ndarray:
+    """Input spectrum of a measured, band-limited force history (N)."""
+    return grid.spectrum(force)
+
+
+def release_spectrum(grid: FrequencyGrid, tip_load: float, t0: float = 0.0) -> np.ndarray:
+    """Input spectrum of releasing a static tip load (N) at t = 0, sampled from t0.
+
+    For t <= 0 the beam rests in its (relaxed) static deflection under ``tip_load``; removing the
+    load is the step -tip_load H(t), whose Laplace transform is -tip_load/s. The sampled
+    transform carries 1/dt (a DFT of samples approximates the continuous transform over dt).
+    """
+    return -tip_load * np.exp(grid.s * t0) / (grid.s * grid.dt)
+
+
+def respond(system: SecondOrderSystem, grid: FrequencyGrid, rows: np.ndarray, load: np.ndarray,
+            drive: np.ndarray) -> np.ndarray:
+    """Outputs (n, n_out): the inverse transform of H(s) times :func:`drive_spectrum`.
+
+    ``rows`` (n_out, n_dof) are displacement rows, ``load`` (n_dof,) the generalized load vector.
+    """
+    h = system.transfer(grid.s, rows, load[:, None])[:, :, 0]
+    h *= drive
+    return grid.samples(h)
+
+
+def static_offset(system: SecondOrderSystem, rows: np.ndarray, orders, load: np.ndarray,
+                  tip_load: float) -> np.ndarray:
+    """Static deflection under the tip load at displacement outputs, 0 elsewhere (n_out,)."""
+    static = rows @ np.linalg.solve(system.static_stiffness(), load * tip_load)
+    return static * (np.asarray(orders) == 0)
 
 
 def force_response(system: SecondOrderSystem, grid: FrequencyGrid, rows: np.ndarray, orders,
@@ -128,20 +159,12 @@ def force_response(system: SecondOrderSystem, grid: FrequencyGrid, rows: np.ndar
 
     The beam is at rest at the first sample; the force samples are band-limited signals.
     """
-    h = output_transfer(system, grid, rows, orders, load[:, None])[:, :, 0]
-    return grid.samples(h * grid.spectrum(force)[:, None])
+    return respond(system, grid, rows, load, drive_spectrum(grid, orders, force_spectrum(grid, force)))
 
 
 def release_response(system: SecondOrderSystem, grid: FrequencyGrid, rows: np.ndarray, orders,
                      load: np.ndarray, tip_load: float, t0: float = 0.0) -> np.ndarray:
-    """Outputs (n, n_out) after releasing a static load at t = 0; samples at t0 + n dt.
-
-    For t <= 0 the beam rests in its (relaxed) static deflection under ``tip_load`` (N); removing
-    the load is a step -tip_load H(t), whose band-limited Laplace transform is
-    -tip_load W(w)/s. The static deflection is added to displacement outputs.
-    """
-    h = output_transfer(system, grid, rows, orders, load[:, None])[:, :, 0]
-    step = -tip_load * np.exp(grid.s * t0) / (grid.s * grid.dt)
-    y = grid.samples(h * step[:, None])
-    static = rows @ np.linalg.solve(system.static_stiffness(), load * tip_load)
-    return y + static[None, :] * (np.asarray(orders) == 0)[None, :]
+    """Outputs (n, n_out) after releasing a static load at t = 0; samples at t0 + n dt."""
+    drive = drive_spectrum(grid, orders, release_spectrum(grid, tip_load, t0))
+    y = respond(system, grid, rows, load, drive)
+    return y + static_offset(system, rows, orders, load, tip_load)[None, :]
