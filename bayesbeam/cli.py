@@ -54,7 +54,8 @@ def add_noise(signals: np.ndarray, fraction: float, seed: int | None) -> np.ndar
 def cmd_simulate(args) -> int:
     rec = load_recording(args.recording)
     model = BeamModel.from_recording(rec, args.model, args.n_intervals,
-                                     force_window=False if args.no_force_window else None)
+                                     force_window=False if args.no_force_window else None,
+                                     effects=args.effect)
     params = {"EI": rec.beam.nominal_EI, **parse_assignments(args.set)}
     values = model.values(params)
     initial = model.fit_initial(params) if rec.excitation.kind == "free_decay" else None
@@ -83,6 +84,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim = sub.add_parser("simulate", help="simulate a recording's sensors under a damping model")
     sim.add_argument("recording", help="recording directory (beam.toml + recording.csv)")
     sim.add_argument("--model", default="q1", help="preset (q1, q2, q3) or mechanisms joined by '+'")
+    sim.add_argument("--effect", action="append", metavar="EFFECT",
+                     help="add a missing-physics effect (repeatable), e.g. --effect root_compliance")
     sim.add_argument("--set", action="append", metavar="NAME=VALUE",
                      help="parameter value in SI units (repeatable); EI defaults to the nominal E*I")
     sim.add_argument("--n-intervals", type=int, default=16, help="spline intervals N (default 16)")

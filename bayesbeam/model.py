@@ -18,7 +18,9 @@ from scipy import linalg
 
 from bayesbeam.io import Recording
 from bayesbeam.physics.assembly import BeamOperators
+from bayesbeam.physics import effects as effect_catalogue
 from bayesbeam.physics.basis import SplineBasis
+from bayesbeam.physics.effects import Setup
 from bayesbeam.physics.mechanisms import resolve
 from bayesbeam.response.linear import (ORDERS, STOPBAND, FrequencyGrid, drive_spectrum,
                                        force_spectrum, release_spectrum, respond, static_offset)
@@ -42,16 +44,23 @@ class BeamModel:
     force_window : bool or None
         Apply the impact force window (:func:`bayesbeam.response.signals.impact_window`) to a
         measured force; ``None`` (default) means on for ``kind = "force"`` recordings.
+    effects : str or sequence of str, optional
+        Missing-physics effects (:mod:`bayesbeam.physics.effects`) added to the damping model.
     """
 
     def __init__(self, recording: Recording, mechanisms="q1", n_intervals: int = 16,
-                 force_window: bool | None = None):
+                 force_window: bool | None = None, effects=None):
         self.recording = recording
         self.mechanisms = resolve(mechanisms)
+        self.effects = effect_catalogue.resolve(effects)
         self.n_intervals = int(n_intervals)
         beam, tip = recording.beam, recording.tip
-        self.ops = BeamOperators(SplineBasis(beam.length, self.n_intervals), beam.rho_a,
+        root = "pinned" if any(e.root == "pinned" for e in self.effects) else "clamped"
+        self.ops = BeamOperators(SplineBasis(beam.length, self.n_intervals, root), beam.rho_a,
                                  tip.mass, tip.rotary_inertia)
+        exc = recording.excitation
+        self.setup = Setup(tuple(s.location for s in recording.sensors),
+                           exc.location if exc.kind == "force" else None)
         self.rows = self.ops.rows([s.location for s in recording.sensors])
         self.orders = np.array([ORDERS[s.quantity] for s in recording.sensors])
         self.grid = FrequencyGrid(recording.n_samples, recording.dt)
@@ -60,28 +69,33 @@ class BeamModel:
 
     @classmethod
     def from_recording(cls, recording: Recording, mechanisms="q1", n_intervals: int = 16,
-                       force_window: bool | None = None) -> BeamModel:
-        """The model of ``recording`` under ``mechanisms`` (see the class docstring)."""
-        return cls(recording, mechanisms, n_intervals, force_window)
+                       force_window: bool | None = None, effects=None) -> BeamModel:
+        """The model of ``recording`` under ``mechanisms`` and ``effects`` (see the class docstring)."""
+        return cls(recording, mechanisms, n_intervals, force_window, effects)
 
     # ------------------------------------------------------------------ parameters
     @property
     def name(self) -> str:
-        return "+".join(m.name for m in self.mechanisms) or "undamped"
+        return "+".join(c.name for c in self.components) or "undamped"
+
+    @property
+    def components(self) -> tuple:
+        """The damping mechanisms, then the effects."""
+        return self.mechanisms + self.effects
 
     @cached_property
     def parameter_names(self) -> tuple[str, ...]:
-        """Names of the free parameters, in order: EI, then each mechanism's."""
+        """Names of the free parameters, in order: EI, each mechanism's, each effect's."""
         names = ["EI"]
-        for m in self.mechanisms:
-            names += [p for p in m.parameters if p not in m.defaults]
+        for c in self.components:
+            names += [p for p in c.parameters if p not in c.defaults]
         return tuple(names)
 
     @cached_property
     def units(self) -> dict[str, str]:
         out = dict(PARAMETER_UNITS)
-        for m in self.mechanisms:
-            out.update(m.units)
+        for c in self.components:
+            out.update(c.units)
         return out
 
     def values(self, params: Mapping[str, float] | Sequence[float]) -> dict[str, float]:
@@ -89,8 +103,8 @@ class BeamModel:
         if not isinstance(params, Mapping):
             params = dict(zip(self.parameter_names, np.asarray(params, dtype=float), strict=True))
         known = set(self.parameter_names)
-        for m in self.mechanisms:
-            known.update(m.parameters)
+        for c in self.components:
+            known.update(c.parameters)
         unknown = sorted(set(params) - known)
         if unknown:
             raise ValueError(f"unknown parameter(s) {unknown} for model {self.name}; "
@@ -100,10 +114,10 @@ class BeamModel:
             listed = ", ".join(f"{p} ({self.units[p]})" for p in missing)
             raise ValueError(f"model {self.name} needs parameter(s) {listed}")
         out = {k: float(v) for k, v in params.items()}
-        for m in self.mechanisms:
-            for key, default in m.defaults.items():
+        for c in self.components:
+            for key, default in c.defaults.items():
                 out.setdefault(key, default)
-            m.check(out)
+            c.check(out)
         if not (np.isfinite(out["EI"]) and out["EI"] > 0):
             raise ValueError(f"EI = {out['EI']!r} N m^2 is not physical (must be finite and > 0)")
         return out
@@ -126,7 +140,12 @@ class BeamModel:
         if relaxations:
             relaxation = relaxations[0] if len(relaxations) == 1 else (
                 lambda s: sum(g(s) for g in relaxations))
-        system = SecondOrderSystem(ops.M, damping, v["EI"] * ops.K0, relaxation,
+        mass, stiffness = ops.M, v["EI"] * ops.K0
+        for e in self.effects:
+            added_mass, added_stiffness = e.mass(ops, v, self.setup), e.stiffness(ops, v, self.setup)
+            mass = mass if added_mass is None else mass + added_mass
+            stiffness = stiffness if added_stiffness is None else stiffness + added_stiffness
+        system = SecondOrderSystem(mass, damping, stiffness, relaxation,
                                    ops.K0 if relaxation else None)
         if relaxation is not None:
             system.check_stable()
@@ -159,10 +178,17 @@ class BeamModel:
                                  "initial= (coefficients of free_decay_basis, e.g. from fit_initial)")
             return self.free_decay_basis(params) @ np.asarray(initial, dtype=float)
         system = self.system(params)
-        y = respond(system, self.grid, self.rows, self.load, self.drive)
+        tau = self.delay(params)
+        drive = self.drive if tau == 0 else self.drive * np.exp(-self.grid.s * tau)[:, None]
+        y = respond(system, self.grid, self.rows, self.load, drive)
         if exc.kind == "release":
             y += static_offset(system, self.rows, self.orders, self.load, exc.tip_load)[None, :]
         return y
+
+    def delay(self, params) -> float:
+        """Total delay of the response channels behind the motion (s)."""
+        v = self.values(params)
+        return float(sum(e.delay(v) for e in self.effects))
 
     @cached_property
     def fit_mask(self) -> np.ndarray:
@@ -189,6 +215,7 @@ class BeamModel:
         waves = np.exp(np.outer(np.where(self.fit_mask, tau, 0.0), poles))
         waves[~self.fit_mask] = 0.0
         gain = (self.rows @ shapes) * poles[None, :] ** self.orders[:, None]
+        gain = gain * np.exp(-poles * self.delay(params))[None, :]
         resp = waves[:, None, :] * gain[None, :, :]
         return np.concatenate([resp.real, -resp.imag], axis=2)
 

@@ -1,0 +1,60 @@
+"""The one interface of every missing-physics effect.
+
+An effect is something real that a damping model leaves out: a compliant clamp, the sensor's
+own mass, an axial load, amplitude-dependent drag or friction, a delay in the acquisition.
+Like a damping mechanism it has named parameters (SI units) and adds to the Galerkin system:
+
+* linear effects add to the mass or stiffness matrix, change the root condition of the basis,
+  or delay the response channels; the exact frequency-domain solver handles them;
+* nonlinear effects add a velocity-dependent force that needs a time integrator
+  (:mod:`bayesbeam.response.nonlinear`).
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from bayesbeam.physics.assembly import BeamOperators
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What an effect may need to know of the test set-up (positions in m from the clamp)."""
+
+    sensor_locations: tuple[float, ...]
+    force_location: float | None = None
+
+
+class Effect:
+    """Base class: a name, parameters (the catalogue's names, SI units) and contributions."""
+
+    name: str = ""
+    parameters: tuple[str, ...] = ()
+    units: Mapping[str, str] = {}
+    defaults: Mapping[str, float] = {}
+    description: str = ""
+    #: root condition the basis must satisfy with this effect on ("clamped" or "pinned")
+    root: str = "clamped"
+    #: True when the effect keeps the equations linear
+    linear: bool = True
+
+    def check(self, values: Mapping[str, float]) -> None:
+        """Raise ValueError if the values are not physical (default: finite and >= 0)."""
+        for key in self.parameters:
+            v = values[key]
+            if not np.isfinite(v) or v < 0:
+                raise ValueError(f"{self.name}: {key} = {v!r} is not physical (must be finite and >= 0)")
+
+    def mass(self, ops: BeamOperators, values, setup: Setup) -> np.ndarray | None:
+        """Added mass matrix (kg in generalised coordinates), or None."""
+        return None
+
+    def stiffness(self, ops: BeamOperators, values, setup: Setup) -> np.ndarray | None:
+        """Added stiffness matrix (N/m in generalised coordinates), or None."""
+        return None
+
+    def delay(self, values) -> float:
+        """Delay of every response channel behind the motion (s); the force channel is not delayed."""
+        return 0.0

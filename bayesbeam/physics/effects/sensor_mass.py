@@ -1,0 +1,19 @@
+"""The accelerometer's own mass, a point mass m_s at the first sensor's location.
+
+Weak form: :math:`m_s\\, u_{tt}(x_s)\\, \\psi(x_s)`, i.e. :math:`M \\mathrel{+}= m_s\\, r r^T`
+with :math:`r = B(x_s)`. m_s in kg.
+"""
+import numpy as np
+
+from bayesbeam.physics.effects.base import Effect
+
+
+class SensorMass(Effect):
+    name = "sensor_mass"
+    parameters = ("m_s",)
+    units = {"m_s": "kg"}
+    description = "point mass of the sensor at the first sensor's location"
+
+    def mass(self, ops, values, setup):
+        r = ops.rows([setup.sensor_locations[0]])[0]
+        return values["m_s"] * np.outer(r, r)
