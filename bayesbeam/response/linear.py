@@ -17,7 +17,7 @@ where :math:`F` is the spectrum of the band-limited force (the DTFT of its sampl
 0.40 fs, 0 to within 1e-10 from 0.50 fs, an erf-shaped transition in between. Inside 0.40 fs
 the output is exact; the DAQ's own transition band, whose shape a recording does not state, is
 tapered smoothly. The taper also makes the discrete impulse response decay like a Gaussian
-(about 20 samples wide) instead of like 1/n.
+(standard deviation about 20 samples: negligible beyond about 150) instead of like 1/n.
 
 How it is computed (exactly, in O(n log n))
 -------------------------------------------
