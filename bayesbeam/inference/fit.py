@@ -1,0 +1,257 @@
+"""One call from a recording to a posterior: ``bayesbeam.fit(rec, "q3") -> FitResult``.
+
+Steps: window and anti-aliased decimation of the recording, the discretisation N (chosen
+automatically unless given), priors (defaults overridden by a fit file), the robust optimum,
+converged emcee chains, and the results as arviz InferenceData plus a JSON summary.
+"""
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+
+from bayesbeam.inference.likelihood import NOISE_MODELS, BandProjection, Likelihood
+from bayesbeam.inference.posterior import LogPosterior
+from bayesbeam.inference.priors import Prior, default_priors, prior_from_table
+from bayesbeam.inference.sampler import (Chains, Optimum, find_optimum, laplace_covariance,
+                                         newton_shift, run_emcee)
+from bayesbeam.model import BeamModel
+from bayesbeam.response.linear import PASSBAND
+from bayesbeam.response.signals import EDGE, decimate
+
+#: refinement ladder for the automatic choice of N
+N_LADDER = (16, 24, 32, 48, 64)
+#: refining N must move every parameter's optimum by less than this many posterior sd
+SHIFT_TOLERANCE = 0.1
+#: default fitting band as a fraction of the sampling rate: below the DAQ passband edge 0.40
+DEFAULT_BAND = 0.38
+#: records longer than this (after windowing) are decimated by default to keep fits tractable
+MAX_DEFAULT_SAMPLES = 2**15
+
+
+@dataclass
+class FitConfig:
+    """Everything that shapes a fit besides the recording and the model.
+
+    start, stop: fitted window (s; default: the whole record, from ``start`` for a free decay);
+    max_frequency: top of the fitted band (Hz; default 0.38 fs, lowered for records longer than
+    32768 samples); n_intervals: spline intervals N or None for automatic; noise: "white" or
+    "ar1"; block: samples per likelihood block (default: about 16 blocks); walkers, max_steps,
+    tau_factor: emcee settings; seed; effects: missing-physics effects to add; priors: overrides.
+    """
+
+    start: float | None = None
+    stop: float | None = None
+    max_frequency: float | None = None
+    n_intervals: int | None = None
+    noise: str = "white"
+    block: int | None = None
+    walkers: int | None = None
+    max_steps: int = 20000
+    tau_factor: float = 50.0
+    seed: int = 1
+    effects: tuple[str, ...] = ()
+    force_window: bool | None = None
+    priors: dict[str, Prior] = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.noise not in NOISE_MODELS:
+            raise ValueError(f"noise = {self.noise!r}: expected one of {NOISE_MODELS}")
+        self.effects = tuple(self.effects)
+
+
+def load_fit_config(path, **overrides) -> FitConfig:
+    """A FitConfig from a TOML fit file (``[fit]`` settings, ``[prior.NAME]`` tables)."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ValueError(f"{path}: fit file not found. Fix: check the path given to --config") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: {exc}. Fix: correct the TOML syntax there") from None
+    settings = dict(doc.get("fit", {}))
+    known = {f.name for f in fields(FitConfig)} - {"priors"}
+    unknown = sorted(set(settings) - known)
+    if unknown:
+        raise ValueError(f"{path}: [fit] has unknown key(s) {unknown}. Fix: use only {sorted(known)}")
+    priors = {name: prior_from_table(name, table, str(path)) for name, table in doc.get("prior", {}).items()}
+    settings.update({k: v for k, v in overrides.items() if v is not None})
+    return FitConfig(priors=priors, **settings)
+
+
+@dataclass
+class Problem:
+    """A recording prepared for one model: the (decimated) model, its likelihood and posterior."""
+
+    model: BeamModel
+    likelihood: Likelihood
+    posterior: LogPosterior
+    decimation: int
+
+
+def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
+    """Window, decimate, and build the model, likelihood and posterior at N = n_intervals."""
+    factor, f_max = _band(rec, config)
+    data = decimate(rec, factor, force_window=config.force_window)
+    model = BeamModel.from_recording(data, mechanisms, n_intervals, force_window=False,
+                                     effects=config.effects)
+    i0, i1 = _window(data, config, edge=EDGE if factor > 1 else 0)
+    block = config.block or int(np.clip(2 ** np.floor(np.log2(max((i1 - i0) / 16, 1))), 256, 4096))
+    projection = BandProjection(data.fs, i0, i1, min(block, i1 - i0), f_max)
+    likelihood = Likelihood(model, projection, config.noise)
+    _check_channels(model, rec)
+    priors = default_priors(rec.beam, model.parameter_names, likelihood.channel_rms)
+    unknown = sorted(set(config.priors) - set(priors))
+    if unknown:
+        raise ValueError(f"prior given for {unknown}, which model {model.name} does not have; "
+                         f"its parameters: {list(priors)}")
+    priors.update(config.priors)
+    for name in likelihood.noise_names:
+        if name.startswith("phi_"):
+            priors.setdefault(name, Prior("uniform", -0.99, 0.99))
+    return Problem(model, likelihood, LogPosterior(likelihood, priors), factor)
+
+
+def _band(rec, config: FitConfig) -> tuple[int, float]:
+    """(decimation factor, top of the fitted band in Hz)."""
+    t0 = config.start if config.start is not None else rec.time[0]
+    t1 = config.stop if config.stop is not None else rec.time[-1]
+    n_window = int((t1 - t0) * rec.fs) + 1
+    f_max = config.max_frequency
+    if f_max is None:
+        f_max = DEFAULT_BAND * rec.fs
+        if n_window > MAX_DEFAULT_SAMPLES:
+            f_max = DEFAULT_BAND * rec.fs / int(np.ceil(n_window / MAX_DEFAULT_SAMPLES))
+    if not 0 < f_max <= DEFAULT_BAND * rec.fs:
+        raise ValueError(f"max_frequency = {f_max} Hz: must be positive and at most {DEFAULT_BAND} fs = "
+                         f"{DEFAULT_BAND * rec.fs:.6g} Hz (the DAQ's passband ends at 0.40 fs)")
+    factor = max(1, int(np.floor(PASSBAND * rec.fs / f_max)))
+    return factor, f_max
+
+
+def _window(data, config: FitConfig, edge: int) -> tuple[int, int]:
+    time = data.time
+    start = config.start if config.start is not None else time[0]
+    if data.excitation.kind == "free_decay":
+        start = max(start, data.excitation.start)
+    stop = config.stop if config.stop is not None else time[-1]
+    if not time[0] <= start < stop:
+        raise ValueError(f"fit window start = {start} s, stop = {stop} s: need "
+                         f"{time[0]} <= start < stop <= {time[-1]} s")
+    i0 = int(np.searchsorted(time, start))
+    i1 = min(int(np.searchsorted(time, stop, side="right")), data.n_samples - edge)
+    return i0, i1
+
+
+def _check_channels(model, rec):
+    if rec.n_samples < 2 or not len(rec.sensors):
+        raise ValueError(f"{rec.source}: the recording has no sensor channel to fit")
+
+
+# ---------------------------------------------------------------------------- the fit
+@dataclass
+class FitResult:
+    """A fitted posterior: the problem, optimum, chains, InferenceData and summary."""
+
+    recording: object
+    model_spec: str
+    problem: Problem
+    optimum: Optimum
+    chains: Chains
+    discretisation: dict
+    config: FitConfig
+    idata: object = None
+    summary: dict = field(default_factory=dict)
+
+    @property
+    def converged(self) -> bool:
+        return self.chains.converged
+
+    def values(self) -> np.ndarray:
+        """Posterior samples as physical values: (n_walkers, n_draws, ndim)."""
+        post = self.problem.posterior
+        out = np.empty_like(self.chains.samples)
+        for i, p in enumerate(post.priors):
+            out[..., i] = p.to_value(self.chains.samples[..., i])
+        return out
+
+
+def fit(rec, model="q1", config: FitConfig | None = None, *, pool=None, backend_path=None,
+        resume: bool = False, log=None, progress=None) -> FitResult:
+    """Sample the posterior of ``model``'s parameters given ``rec``.
+
+    ``model``: a preset (``"q1"``, ``"q2"``, ``"q3"``), ``+``-joined mechanisms or a list.
+    ``pool``: any object with ``map`` whose workers ran :func:`~bayesbeam.inference.sampler.init_worker`
+    (see :func:`~bayesbeam.inference.sampler.local_pool`). ``log``/``progress``: callables taking a
+    line of text (None: silent).
+    """
+    from bayesbeam.inference.results import build_inference_data, build_summary
+
+    config = config or FitConfig()
+    rng = np.random.default_rng(config.seed)
+    problem, optimum, discretisation = choose_discretisation(rec, model, config, rng, log)
+    owned = isinstance(pool, int) or hasattr(pool, "factory")
+    pool = _pool_for(pool, problem.posterior) if pool is not None else None
+    try:
+        chains = run_emcee(problem.posterior, optimum, rng, n_walkers=config.walkers,
+                           max_steps=config.max_steps, tau_factor=config.tau_factor, pool=pool,
+                           backend_path=backend_path, resume=resume, progress=progress)
+    finally:
+        if owned and pool is not None:
+            (pool.shutdown if hasattr(pool, "shutdown") else pool.close)()
+    result = FitResult(rec, model if isinstance(model, str) else "+".join(model), problem, optimum,
+                       chains, discretisation, config)
+    result.idata = build_inference_data(result, rng)
+    result.summary = build_summary(result)
+    return result
+
+
+def _pool_for(pool, posterior):
+    """A ready pool; an int (that many local processes); or an object with ``factory(posterior)``."""
+    if isinstance(pool, int):
+        from bayesbeam.inference.sampler import local_pool
+
+        return local_pool(posterior, pool) if pool > 1 else None
+    if hasattr(pool, "factory"):
+        return pool.factory(posterior)
+    return pool
+
+
+def choose_discretisation(rec, model, config: FitConfig, rng, log=None):
+    """(problem, optimum, record) at the N the data need; see :data:`SHIFT_TOLERANCE`.
+
+    The optimum at N is compared with the optimum at the next finer N, estimated by one Newton
+    step of the finer model's log posterior from the coarse optimum (exact to second order in the
+    shift, which is small exactly when the check passes). While the check fails, the Newton
+    estimate moves up the ladder (:data:`N_LADDER`) and only the accepted N is polished. With
+    ``config.n_intervals`` set, that N is used and the check is still recorded, so a user can
+    see whether the fixed N is adequate; at the top of the ladder a failed check is reported as
+    such (``passed: false``), never hidden.
+    """
+    problem = prepare(rec, model, config, config.n_intervals or N_LADDER[0])
+    optimum = find_optimum(problem.posterior, rng, log=log)
+    k = len(problem.posterior.model_names)
+    moved_up = False
+    while True:
+        n = problem.model.n_intervals
+        finer_n = N_LADDER[N_LADDER.index(n) + 1] if n in N_LADDER[:-1] else int(1.5 * n)
+        finer = prepare(rec, model, config, finer_n)
+        moved = newton_shift(finer.posterior, optimum.theta, optimum.covariance)
+        shift = np.abs(moved[:k]) / np.sqrt(np.diag(optimum.covariance)[:k])
+        record = {"n_intervals": n, "refined_n_intervals": finer_n, "tolerance_sd": SHIFT_TOLERANCE,
+                  "max_shift_sd": float(np.max(shift)),
+                  "shift_sd": dict(zip(problem.posterior.model_names, map(float, shift))),
+                  "passed": bool(np.max(shift) < SHIFT_TOLERANCE), "automatic": not config.n_intervals}
+        if log:
+            log(f"N = {n} vs {finer_n}: largest optimum shift {np.max(shift):.3g} posterior sd")
+        if record["passed"] or config.n_intervals or finer_n > N_LADDER[-1]:
+            break
+        theta = optimum.theta + np.where(np.isfinite(moved), moved, 0.0)
+        problem, moved_up = finer, True
+        optimum = Optimum(theta, problem.posterior(theta), laplace_covariance(problem.posterior, theta), 0)
+    if moved_up:
+        start = problem.posterior.split(optimum.theta)[0]
+        optimum = find_optimum(problem.posterior, rng, start=start, log=log)
+    return problem, optimum, record
