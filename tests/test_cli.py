@@ -71,3 +71,31 @@ def test_bad_recording_exits_2(tmp_path, capsys):
 def test_console_script_runs():
     done = subprocess.run([sys.executable, "-m", "bayesbeam.cli", "--version"], capture_output=True, text=True)
     assert done.returncode == 0 and "bayesbeam" in done.stdout
+
+
+FIT_ARGS = ["--model", "air", "--stop", "0.5", "--max-frequency", "60", "--n-intervals", "8",
+            "--walkers", "8", "--quiet"]
+
+
+def test_fit_writes_outputs_and_flags_unconverged_chains(tmp_path, capsys):
+    """A deliberately short run: all outputs exist and the exit status says 'not converged' (3)."""
+    import json
+
+    out = tmp_path / "fit"
+    rec = str(DATA / "examples" / "paper_q3_hammer")
+    code = main(["fit", rec, *FIT_ARGS, "--max-steps", "60", "--out", str(out)])
+    assert code == 3
+    for name in ("posterior.nc", "summary.json", "corner.png", "trace.png", "fit.png", "chains.h5"):
+        assert (out / name).stat().st_size > 0, name
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["converged"] is False and "max_steps" in summary["convergence"]["reason"]
+    assert set(summary["parameters"]) == {"EI", "gamma"}
+    assert "NOT converged" in capsys.readouterr().out
+    # --resume continues the saved chain instead of starting again
+    code = main(["fit", rec, *FIT_ARGS, "--max-steps", "90", "--resume", "--out", str(out)])
+    assert json.loads((out / "summary.json").read_text())["convergence"]["n_steps"] == 90
+
+
+def test_fit_refuses_an_unknown_model(tmp_path, capsys):
+    code = main(["fit", str(DATA / "examples" / "paper_q3_hammer"), "--model", "q9", "--out", str(tmp_path / "x")])
+    assert code == 2 and "unknown damping mechanism" in capsys.readouterr().err
