@@ -302,13 +302,18 @@ def _table(doc: dict, name: str, file: Path, *, required: bool) -> dict:
     return doc[name]
 
 
+def _default_or_missing(default, key: str, label: str, file: Path):
+    """``default`` for an absent key, or the 'missing' refusal when there is none."""
+    if default is not None:
+        return default
+    raise RecordingError(file, f"{label} .{key}", "missing", f"add `{key} = <{_MEANING[key]}>` to {label}.")
+
+
 def _number(table: dict, key: str, label: str, file: Path, default: float | None = None) -> float:
     """The finite number ``table[key]``; ``default`` when absent, unless that is None."""
     where = f"{label} .{key}"
     if key not in table:
-        if default is not None:
-            return default
-        raise RecordingError(file, where, "missing", f"add `{key} = <{_MEANING[key]}>` to {label}.")
+        return _default_or_missing(default, key, label, file)
     value = table[key]
     # bool is an int subclass in Python, but `true` is not a length.
     if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -330,9 +335,7 @@ def _text(table: dict, key: str, label: str, file: Path, default: str | None = N
     """The non-empty string ``table[key]``; ``default`` when absent, unless that is None."""
     where = f"{label} .{key}"
     if key not in table:
-        if default is not None:
-            return default
-        raise RecordingError(file, where, "missing", f"add `{key} = <{_MEANING[key]}>` to {label}.")
+        return _default_or_missing(default, key, label, file)
     value = table[key]
     if not isinstance(value, str) or not value:
         raise RecordingError(

@@ -11,12 +11,12 @@ Like a damping mechanism it has named parameters (SI units) and adds to the Gale
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from bayesbeam.physics.assembly import BeamOperators
+from bayesbeam.physics.component import Component
 
 
 @dataclass(frozen=True)
@@ -27,25 +27,13 @@ class Setup:
     force_location: float | None = None
 
 
-class Effect:
-    """Base class: a name, parameters (the catalogue's names, SI units) and contributions."""
+class Effect(Component):
+    """A missing-physics effect: parameters (the catalogue's names, SI units) and contributions."""
 
-    name: str = ""
-    parameters: tuple[str, ...] = ()
-    units: Mapping[str, str] = {}
-    defaults: Mapping[str, float] = {}
-    description: str = ""
     #: root condition the basis must satisfy with this effect on ("clamped" or "pinned")
     root: str = "clamped"
     #: True when the effect keeps the equations linear
     linear: bool = True
-
-    def check(self, values: Mapping[str, float]) -> None:
-        """Raise ValueError if the values are not physical (default: finite and >= 0)."""
-        for key in self.parameters:
-            v = values[key]
-            if not np.isfinite(v) or v < 0:
-                raise ValueError(f"{self.name}: {key} = {v!r} is not physical (must be finite and >= 0)")
 
     def mass(self, ops: BeamOperators, values, setup: Setup) -> np.ndarray | None:
         """Added mass matrix (kg in generalised coordinates), or None."""

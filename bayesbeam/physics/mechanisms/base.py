@@ -18,24 +18,11 @@ from collections.abc import Callable, Mapping
 import numpy as np
 
 from bayesbeam.physics.assembly import BeamOperators
+from bayesbeam.physics.component import Component
 
 
-class Mechanism:
-    """Base class: a name, its parameters (the paper's names, SI units) and its contribution."""
-
-    name: str = ""
-    parameters: tuple[str, ...] = ()
-    units: Mapping[str, str] = {}
-    #: parameters with a default value, not sampled unless the user asks
-    defaults: Mapping[str, float] = {}
-    description: str = ""
-
-    def check(self, values: Mapping[str, float]) -> None:
-        """Raise ValueError if the values are not physical (default: all finite and >= 0)."""
-        for key in self.parameters:
-            v = values[key]
-            if not (np.isfinite(v) or (v == np.inf and key in self.defaults)) or v < 0:
-                raise ValueError(f"{self.name}: {key} = {v!r} is not physical (must be finite and >= 0)")
+class Mechanism(Component):
+    """A damping mechanism: its parameters (the paper's names, SI units) and its contribution."""
 
     def damping(self, ops: BeamOperators, values: Mapping[str, float]) -> np.ndarray | None:
         """Viscous damping matrix D_m (N s/m in generalized coordinates), or None."""
