@@ -38,7 +38,8 @@ class FitConfig:
     start, stop: fitted window (s; default: the whole record, from ``start`` for a free decay);
     max_frequency: top of the fitted band (Hz; default 0.38 fs, lowered for records longer than
     32768 samples); n_intervals: spline intervals N or None for automatic; noise: "white" or
-    "ar1"; block: samples per likelihood block (default: about 16 blocks); walkers, max_steps,
+    "ar1"; block: samples per likelihood block (default: up to 16 blocks of >= 256 samples
+    covering the window); walkers, max_steps,
     tau_factor: emcee settings; seed; effects: missing-physics effects to add; priors: overrides.
     """
 
@@ -71,6 +72,10 @@ def load_fit_config(path, **overrides) -> FitConfig:
         raise ValueError(f"{path}: fit file not found. Fix: check the path given to --config") from None
     except tomllib.TOMLDecodeError as exc:
         raise ValueError(f"{path}: {exc}. Fix: correct the TOML syntax there") from None
+    tables = sorted(set(doc) - {"fit", "prior"})
+    if tables:
+        raise ValueError(f"{path}: unknown table(s) {tables}. Fix: use [fit] for settings and "
+                         f"[prior.NAME] for priors")
     settings = dict(doc.get("fit", {}))
     known = {f.name for f in fields(FitConfig)} - {"priors"}
     unknown = sorted(set(settings) - known)
@@ -93,24 +98,27 @@ class Problem:
 
 def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     """Window, decimate, and build the model, likelihood and posterior at N = n_intervals."""
+    _check_channels(rec)
     factor, f_max = _band(rec, config)
     data = decimate(rec, factor, force_window=config.force_window)
     model = BeamModel.from_recording(data, mechanisms, n_intervals, force_window=False,
                                      effects=config.effects)
     i0, i1 = _window(data, config, edge=EDGE if factor > 1 else 0)
-    block = config.block or int(np.clip(2 ** np.floor(np.log2(max((i1 - i0) / 16, 1))), 256, 4096))
-    projection = BandProjection(data.fs, i0, i1, min(block, i1 - i0), f_max)
+    # default: up to 16 blocks of at least 256 samples that cover the window (the remainder is
+    # under one sample per block); an explicit block longer than the window is refused
+    n_blocks = int(np.clip((i1 - i0) // 256, 1, 16))
+    block = config.block or (i1 - i0) // n_blocks
+    projection = BandProjection(data.fs, i0, i1, block, f_max)
     likelihood = Likelihood(model, projection, config.noise)
-    _check_channels(model, rec)
     priors = default_priors(rec.beam, model.parameter_names, likelihood.channel_rms)
+    for name in likelihood.noise_names:
+        if name.startswith("phi_"):
+            priors[name] = Prior("uniform", -0.99, 0.99)
     unknown = sorted(set(config.priors) - set(priors))
     if unknown:
         raise ValueError(f"prior given for {unknown}, which model {model.name} does not have; "
                          f"its parameters: {list(priors)}")
     priors.update(config.priors)
-    for name in likelihood.noise_names:
-        if name.startswith("phi_"):
-            priors.setdefault(name, Prior("uniform", -0.99, 0.99))
     return Problem(model, likelihood, LogPosterior(likelihood, priors), factor)
 
 
@@ -137,7 +145,7 @@ def _window(data, config: FitConfig, edge: int) -> tuple[int, int]:
     if data.excitation.kind == "free_decay":
         start = max(start, data.excitation.start)
     stop = config.stop if config.stop is not None else time[-1]
-    if not time[0] <= start < stop:
+    if not (time[0] <= start < stop and start < time[-1]):
         raise ValueError(f"fit window start = {start} s, stop = {stop} s: need "
                          f"{time[0]} <= start < stop <= {time[-1]} s")
     i0 = int(np.searchsorted(time, start))
@@ -145,7 +153,7 @@ def _window(data, config: FitConfig, edge: int) -> tuple[int, int]:
     return i0, i1
 
 
-def _check_channels(model, rec):
+def _check_channels(rec):
     if rec.n_samples < 2 or not len(rec.sensors):
         raise ValueError(f"{rec.source}: the recording has no sensor channel to fit")
 

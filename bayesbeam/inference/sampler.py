@@ -236,6 +236,8 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
             backend.reset(n_walkers, ndim)
     fn = worker_log_prob if pool is not None else post
     sampler = emcee.EnsembleSampler(n_walkers, ndim, fn, pool=pool, backend=backend)
+    # emcee draws its moves from a copy of numpy's global state: seed it from rng instead
+    sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
     state = None if (resume and backend is not None and backend.iteration > 0) else _initial_ball(post, optimum, n_walkers, rng)
     if state is None and backend.shape != (n_walkers, ndim):
         raise ValueError(f"--resume: the saved chain has {backend.shape} (walkers, parameters), this fit "

@@ -1,0 +1,290 @@
+"""The band-limited block likelihood against independent computations.
+
+Every check here is deterministic linear algebra (tolerances at the level of double-precision
+round-off, stated per test) except the white-noise sampling check, whose tolerance is derived from
+the chi-square distribution of a sample variance.
+"""
+import numpy as np
+import pytest
+from scipy import stats
+
+from bayesbeam.inference.likelihood import BandProjection, Likelihood
+from bayesbeam.io import Excitation, Recording, Sensor, TipBody
+from bayesbeam.model import BeamModel
+from tests.inference import cases
+
+
+# ---------------------------------------------------------------------------- independent basis
+def dft_rows(n_samples, i0, block, n_blocks, n_bins):
+    """The band coordinates written out as explicit cosine and sine rows (no FFT).
+
+    For block b and bin k the coordinates are sqrt(2/L) sum_t x_t cos(2 pi k t/L) and
+    -sqrt(2/L) sum_t x_t sin(2 pi k t/L) (the real and imaginary parts of the DFT), with 1/sqrt(L)
+    for DC, ordered as the package documents: per block, the real parts of bins 0..K-1, then the
+    imaginary parts of bins 1..K-1.
+    """
+    t = np.arange(block)
+    rows = []
+    for b in range(n_blocks):
+        start = i0 + b * block
+        real, imag = [], []
+        for k in range(n_bins):
+            scale = 1 / np.sqrt(block) if k == 0 else np.sqrt(2 / block)
+            row = np.zeros(n_samples)
+            row[start : start + block] = scale * np.cos(2 * np.pi * k * t / block)
+            real.append(row)
+            if k:
+                row = np.zeros(n_samples)
+                row[start : start + block] = -scale * np.sin(2 * np.pi * k * t / block)
+                imag.append(row)
+        rows += real + imag
+    return np.array(rows)
+
+
+PROJ = BandProjection(fs=512.0, i0=37, i1=37 + 3 * 128 + 50, block=128, max_frequency=150.0)
+
+
+def test_projection_is_the_documented_orthonormal_dft_basis():
+    """project() equals the explicit cosine/sine rows and those rows are orthonormal.
+
+    Tolerance 1e-12 absolute: entries are O(0.1), a length-128 FFT is exact to ~1e-15.
+    The window starts at i0 = 37 and leaves a 50-sample remainder, which must be ignored.
+    """
+    n = PROJ.i1 + 20
+    matrix = PROJ.project(np.eye(n))                       # (size, n): row j = coordinate j
+    assert matrix.shape == (PROJ.size, n) == (3 * (2 * PROJ.n_bins - 1), n)
+    reference = dft_rows(n, PROJ.i0, PROJ.block, PROJ.n_blocks, PROJ.n_bins)
+    np.testing.assert_allclose(matrix, reference, atol=1e-12)
+    np.testing.assert_allclose(matrix @ matrix.T, np.eye(PROJ.size), atol=1e-12)
+    # nothing outside the full blocks of the window contributes
+    assert np.all(matrix[:, : PROJ.i0] == 0) and np.all(matrix[:, PROJ.i0 + 3 * PROJ.block :] == 0)
+    # the bookkeeping arrays agree with the rows
+    k = np.arange(PROJ.n_bins)
+    per_block = np.concatenate([k, k[1:]]) * PROJ.fs / PROJ.block
+    np.testing.assert_array_equal(PROJ.frequencies, np.tile(per_block, 3))
+    np.testing.assert_array_equal(PROJ.blocks, np.repeat(np.arange(3), 2 * PROJ.n_bins - 1))
+    assert PROJ.frequencies.max() <= PROJ.max_frequency
+
+
+def test_white_noise_coordinates_have_the_noise_sd():
+    """Coordinates of white noise of sd s have sd s, uncorrelated.
+
+    400 realisations x 3 blocks x 115 coordinates = 138000 values: the sample variance / s^2 has
+    sd sqrt(2/138000) = 0.38 %, so the 2 % tolerance is 5 sd. Off-diagonal sample correlations
+    of 400 realisations have sd 0.05: |r| < 0.25 is 5 sd (checked on the 115 x 115 matrix of the
+    first block, 6555 pairs: a 5-sd excursion has probability ~4e-3 over all of them).
+    """
+    s = 0.37
+    rng = np.random.default_rng(11)
+    noise = s * rng.standard_normal((PROJ.i1, 400))
+    z = PROJ.project(noise)
+    assert z.shape == (PROJ.size, 400)
+    assert np.mean(z**2) / s**2 == pytest.approx(1.0, abs=0.02)
+    first = z[: 2 * PROJ.n_bins - 1]
+    corr = np.corrcoef(first)
+    assert np.max(np.abs(corr - np.eye(len(first)))) < 0.25
+
+
+@pytest.mark.parametrize("k", [0, 1, 17, PROJ.n_bins - 1])
+def test_in_band_sinusoid_keeps_its_energy(k):
+    """A sinusoid on bin k < max_frequency: the coordinates hold exactly its energy in the blocks.
+
+    Parseval for an orthonormal projection onto a subspace containing the signal: relative 1e-12.
+    """
+    f = k * PROJ.fs / PROJ.block
+    t = np.arange(PROJ.i1) / PROJ.fs
+    x = 0.8 * np.cos(2 * np.pi * f * t + 0.3) + (0.5 if k == 0 else 0.0)
+    kept = x[PROJ.i0 : PROJ.i0 + PROJ.n_blocks * PROJ.block]
+    z = PROJ.project(x)
+    assert np.sum(z**2) == pytest.approx(np.sum(kept**2), rel=1e-12)
+    on_bin = np.isclose(PROJ.frequencies, f)
+    assert np.sum(z[~on_bin] ** 2) < 1e-20 * np.sum(kept**2)
+
+
+@pytest.mark.parametrize("k", [PROJ.n_bins, PROJ.n_bins + 5, PROJ.block // 2 - 1])
+def test_out_of_band_sinusoid_vanishes(k):
+    """A sinusoid on a bin above max_frequency projects to zero (round-off: 1e-24 of its energy)."""
+    f = k * PROJ.fs / PROJ.block
+    assert f > PROJ.max_frequency
+    x = np.sin(2 * np.pi * f * np.arange(PROJ.i1) / PROJ.fs + 1.1)
+    assert np.sum(PROJ.project(x) ** 2) < 1e-24 * np.sum(x**2)
+
+
+def test_projection_refuses_impossible_settings():
+    with pytest.raises(ValueError, match="shorter than one block"):
+        BandProjection(fs=512.0, i0=0, i1=100, block=128, max_frequency=100.0)
+    with pytest.raises(ValueError, match="fs/2"):
+        BandProjection(fs=512.0, i0=0, i1=512, block=128, max_frequency=256.0)
+
+
+# ---------------------------------------------------------------------------- forced recordings
+@pytest.fixture(scope="module")
+def forced():
+    """The cheap force case (q1, N = 6) with signals = model(truth) + a fixed residual e."""
+    rec, clean = cases.clean_response("q1")
+    rng = np.random.default_rng(3)
+    e = 0.5 * rng.standard_normal(clean.shape)
+    rec = rec.with_signals(clean + e)
+    model = BeamModel.from_recording(rec, "q1", 6)
+    proj = BandProjection(rec.fs, 0, rec.n_samples, 128, 0.38 * rec.fs)
+    return rec, model, proj, e
+
+
+def test_white_noise_log_likelihood_equals_a_direct_computation(forced):
+    """log p = sum of N(0, sigma^2) log-densities of the explicit-DFT coordinates of e.
+
+    Independent of the package's projection (explicit cosine rows) and of its formula (scipy's
+    normal log-pdf). Relative 1e-10: sums of ~300 terms of O(1) in double precision.
+    """
+    rec, model, proj, e = forced
+    lik = Likelihood(model, proj, "white")
+    q = dft_rows(rec.n_samples, proj.i0, proj.block, proj.n_blocks, proj.n_bins)
+    sigma = 0.45
+    direct = np.sum(stats.norm.logpdf(q @ e[:, 0], scale=sigma))
+    value = lik.log_likelihood(cases.TRUTH["q1"], {"sigma_accel_tip": sigma})
+    assert value == pytest.approx(direct, rel=1e-10)
+    np.testing.assert_allclose(lik.residual(cases.TRUTH["q1"])[:, 0], q @ e[:, 0], atol=1e-9)
+
+
+def test_noise_free_recording_has_zero_residual_at_the_truth():
+    """Data simulated by the same model: residual zero to round-off (1e-9 of the data RMS)."""
+    rec, clean = cases.clean_response("q3")
+    model = BeamModel.from_recording(rec.with_signals(clean), "q3", 6)
+    lik = Likelihood(model, BandProjection(rec.fs, 0, rec.n_samples, 256, 150.0))
+    r = lik.residual(cases.TRUTH["q3"])
+    assert np.max(np.abs(r)) < 1e-9 * np.sqrt(np.mean(lik.z_data**2))
+
+
+def ar1_exact_variance(proj, n_samples, phi, sigma):
+    """Exact variance of each coordinate of a stationary AR(1) x_t = phi x_(t-1) + e_t, e ~ N(0, sigma^2).
+
+    diag(Q C Q^T) with the AR(1) autocovariance C_ij = sigma^2 phi^|i-j| / (1 - phi^2).
+    """
+    q = dft_rows(n_samples, proj.i0, proj.block, proj.n_blocks, proj.n_bins)
+    lag = np.abs(np.subtract.outer(np.arange(n_samples), np.arange(n_samples)))
+    cov = sigma**2 * phi**lag / (1 - phi**2)
+    return np.einsum("ij,jk,ik->i", q, cov, q)
+
+
+@pytest.mark.parametrize("phi", [0.5, -0.4])
+def test_ar1_variance_is_the_whittle_spectrum(forced, phi):
+    """Likelihood.variance: sigma^2 / (1 - 2 phi cos(2 pi f/fs) + phi^2) per coordinate (relative 1e-12),
+    and that is close to the exact variance of an AR(1) process's coordinates.
+
+    The Whittle form is exact only as the block grows; the block's edges leak a bias of order
+    (correlation time / L). With |phi| <= 0.5 the correlation time is <= 2 samples: measured worst
+    relative errors 2.1 % (phi = 0.5) and 1.5 % (phi = -0.4) at L = 128, half that at L = 256.
+    Bounds: 4 % at L = 128, 2 % at L = 256, and the error must fall roughly as 1/L (ratio < 0.6).
+    """
+    rec, model, _, _ = forced
+    sigma = 0.3
+    worst = []
+    for block, tol in ((128, 0.04), (256, 0.02)):
+        proj = BandProjection(rec.fs, 0, rec.n_samples, block, 0.38 * rec.fs)
+        lik = Likelihood(model, proj, "ar1")
+        assert lik.noise_names == ("sigma_accel_tip", "phi_accel_tip")
+        v = lik.variance({"sigma_accel_tip": sigma, "phi_accel_tip": phi})[:, 0]
+        omega = 2 * np.pi * proj.frequencies / rec.fs
+        np.testing.assert_allclose(v, sigma**2 / (1 - 2 * phi * np.cos(omega) + phi**2), rtol=1e-12)
+        exact = ar1_exact_variance(proj, rec.n_samples, phi, sigma)
+        np.testing.assert_allclose(v, exact, rtol=tol)
+        worst.append(np.max(np.abs(v / exact - 1)))
+    assert worst[1] < 0.6 * worst[0]
+
+
+def test_ar1_with_zero_coefficient_is_white(forced):
+    """phi = 0 reduces AR(1) to white noise: identical log-likelihood (relative 1e-12)."""
+    _, model, proj, _ = forced
+    params = cases.TRUTH["q1"]
+    white = Likelihood(model, proj, "white").log_likelihood(params, {"sigma_accel_tip": 0.4})
+    ar1 = Likelihood(model, proj, "ar1").log_likelihood(params, {"sigma_accel_tip": 0.4, "phi_accel_tip": 0.0})
+    assert ar1 == pytest.approx(white, rel=1e-12)
+
+
+@pytest.mark.parametrize("noise", ["white", "ar1"])
+def test_pointwise_terms_sum_to_the_log_likelihood(forced, noise):
+    """Forced recording: per-block terms (one per block) add up to the total (relative 1e-12)."""
+    _, model, proj, _ = forced
+    lik = Likelihood(model, proj, noise)
+    params = {**cases.TRUTH["q1"], "gamma": 0.31}
+    nz = {"sigma_accel_tip": 0.5, "phi_accel_tip": 0.3}
+    terms = lik.pointwise(params, nz)
+    assert terms.shape == (proj.n_blocks,)
+    assert np.sum(terms) == pytest.approx(lik.log_likelihood(params, nz), rel=1e-12)
+
+
+# ---------------------------------------------------------------------------- free decay
+@pytest.fixture(scope="module")
+def free_decay():
+    """A tiny free decay: 64 samples at 256 Hz, two accelerometers, 2 blocks of 32, band to 60 Hz.
+
+    Dimension of the data vector: 2 channels x 2 blocks x 15 coordinates = 60, small enough for a
+    dense 60 x 60 Gaussian. Returns (model, projection, parameters, noise parameters near the
+    added noise: 5 % of each channel's sd).
+    """
+    fs, n = 256.0, 64
+    time = np.arange(n) / fs
+    sensors = (cases.SENSOR, Sensor("accel_mid", 0.5, "acceleration", "accel_mid"))
+    rec = Recording(cases.PAPER_BEAM, TipBody(), Excitation("free_decay", start=0.0), sensors, time,
+                    np.zeros((n, 2)))
+    params = cases.TRUTH["q1"]
+    model = BeamModel.from_recording(rec, "q1", 6)
+    basis = model.free_decay_basis(params)
+    rng = np.random.default_rng(5)
+    amplitudes = rng.standard_normal(basis.shape[2])
+    clean = model.simulate(params, amplitudes)
+    sd = 0.05 * np.std(clean, axis=0)
+    noisy = clean + sd * rng.standard_normal(clean.shape)
+    model = BeamModel.from_recording(rec.with_signals(noisy), "q1", 6)
+    proj = BandProjection(fs, 0, n, 32, 60.0)
+    nz = {"sigma_accel_tip": 1.2 * sd[0], "sigma_accel_mid": 0.9 * sd[1], "phi_accel_tip": 0.4,
+          "phi_accel_mid": -0.2}
+    return model, proj, params, nz
+
+
+COND = 1e8
+
+
+@pytest.mark.parametrize("noise", ["white", "ar1"])
+def test_free_decay_marginal_likelihood_equals_dense_gaussian(free_decay, noise):
+    """Amplitudes a ~ N(0, S^2) marginalised: y ~ N(0, V + Psi S^2 Psi^T), evaluated by scipy.
+
+    S_j = 10 x RMS(band data) / RMS(column j of the projected basis), as documented. The dense
+    covariance has a condition number ~1.6e7 (asserted < 1e8), so scipy's eigendecomposition can
+    lose ~cond x eps = 1e-9 relative in the log-determinant: the bound is relative 1e-9
+    (measured agreement 5e-12).
+    """
+    model, proj, params, nz = free_decay
+    lik = Likelihood(model, proj, noise)
+    assert lik.free_decay
+    v = lik.variance(nz)                                     # (D, 2)
+    psi = proj.project(model.free_decay_basis(params))       # (D, 2, J)
+    z = proj.project(model.recording.signals)                # (D, 2)
+    s2 = (10 * np.sqrt(np.mean(z**2)) / np.sqrt(np.mean(psi**2, axis=(0, 1)))) ** 2
+    p = psi.reshape(z.size, -1)
+    cov = np.diag(v.ravel()) + p @ np.diag(s2) @ p.T
+    dense = stats.multivariate_normal(mean=np.zeros(z.size), cov=cov).logpdf(z.ravel())
+    assert z.size == 60 and p.shape[1] >= 6
+    assert np.linalg.cond(cov) < COND
+    assert lik.log_likelihood(params, nz) == pytest.approx(dense, rel=1e-9)
+
+
+def test_free_decay_pointwise_terms_use_the_posterior_mean_amplitudes(free_decay):
+    """Pointwise terms of a free decay: Gaussian terms of y - Psi a_hat, a_hat the posterior mean
+    (S^-2 + Psi^T V^-1 Psi)^-1 Psi^T V^-1 y, computed densely (relative 1e-8)."""
+    model, proj, params, nz = free_decay
+    lik = Likelihood(model, proj, "white")
+    v = lik.variance(nz)
+    psi = proj.project(model.free_decay_basis(params))
+    z = proj.project(model.recording.signals)
+    s2 = (10 * np.sqrt(np.mean(z**2)) / np.sqrt(np.mean(psi**2, axis=(0, 1)))) ** 2
+    p = psi.reshape(z.size, -1)
+    vinv = 1 / v.ravel()
+    a_hat = np.linalg.solve(np.diag(1 / s2) + p.T @ (vinv[:, None] * p), p.T @ (vinv * z.ravel()))
+    r = (z.ravel() - p @ a_hat).reshape(z.shape)
+    terms = stats.norm.logpdf(r, scale=np.sqrt(v)).sum(axis=1)
+    expected = np.bincount(proj.blocks, weights=terms)
+    np.testing.assert_allclose(lik.pointwise(params, nz), expected, rtol=1e-8)
+    # and predict() is the model with those amplitudes
+    np.testing.assert_allclose(proj.project(lik.predict(params, nz)), (p @ a_hat).reshape(z.shape),
+                               rtol=1e-7, atol=1e-9 * np.abs(z).max())
