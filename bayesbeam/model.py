@@ -171,6 +171,9 @@ class BeamModel:
         For ``free_decay`` recordings pass ``initial``, the coefficients of
         :meth:`free_decay_basis` (see :meth:`fit_initial`); samples before ``start`` are zero.
         """
+        if any(not e.linear for e in self.effects):
+            from bayesbeam.response.nonlinear import simulate_nonlinear
+            return simulate_nonlinear(self, params, initial)
         exc = self.recording.excitation
         if exc.kind == "free_decay":
             if initial is None:

@@ -4,12 +4,15 @@ Adding an effect touches its module, one line of ``REGISTRY`` and its tests.
 """
 from bayesbeam.physics.effects.axial_load import AxialLoad
 from bayesbeam.physics.effects.base import Effect, Setup
+from bayesbeam.physics.effects.dry_friction import DryFriction
 from bayesbeam.physics.effects.measurement_delay import MeasurementDelay
+from bayesbeam.physics.effects.quadratic_drag import QuadraticDrag
 from bayesbeam.physics.effects.root_compliance import RootCompliance
 from bayesbeam.physics.effects.sensor_mass import SensorMass
 
 REGISTRY: dict[str, Effect] = {
-    e.name: e for e in (RootCompliance(), SensorMass(), AxialLoad(), MeasurementDelay())
+    e.name: e for e in (RootCompliance(), SensorMass(), AxialLoad(), MeasurementDelay(),
+                        QuadraticDrag(), DryFriction())
 }
 
 
