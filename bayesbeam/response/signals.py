@@ -6,7 +6,11 @@ The standard remedy keeps the samples around the impact and zeroes the rest.
 """
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
+
+from bayesbeam.response.linear import daq_passband
 
 #: default force window: samples kept before the first and after the last sample above
 #: THRESHOLD x peak, and the length of the half-cosine tapers outside them. Every kept sample
@@ -54,10 +58,6 @@ def decimate(recording, factor: int, *, force_window: bool | None = None):
     samples carry the filter's response to the end of the record: leave them out of a fit
     (:data:`EDGE` samples of the new rate).
     """
-    from dataclasses import replace
-
-    from bayesbeam.response.linear import daq_passband
-
     factor = int(factor)
     if factor < 1:
         raise ValueError(f"decimation factor must be >= 1, got {factor}")
