@@ -1,0 +1,5 @@
+import sys
+
+from bayesbeam.cli import main
+
+sys.exit(main())
