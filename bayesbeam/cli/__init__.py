@@ -20,6 +20,9 @@ from bayesbeam.io import RecordingError
 COMMANDS = {
     "simulate": "simulate",
     "fit": "fit",
+    "ema": "ema",
+    "era": "era",
+    "import-uff": "import_uff",
 }
 
 

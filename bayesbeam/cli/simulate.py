@@ -7,7 +7,7 @@ import numpy as np
 
 from bayesbeam import __version__
 from bayesbeam.cli.common import parse_assignments
-from bayesbeam.io import load_recording, write_recording
+from bayesbeam.io import load_recording, write_recording, write_uff58
 from bayesbeam.model import BeamModel
 
 HELP = "simulate a recording's sensors under a damping model"
@@ -29,6 +29,7 @@ def add_arguments(sim) -> None:
     sim.add_argument("--modes", type=int, default=9, help="modes to print (default 9)")
     sim.add_argument("--out", required=True, help="output recording directory")
     sim.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+    sim.add_argument("--uff", action="store_true", help="also write OUT/recording.uff (UFF58 time histories)")
 
 
 def modal_table(model: BeamModel, params, n_modes: int = 9) -> str:
@@ -69,4 +70,6 @@ def run(args) -> int:
     print(", ".join(f"{k} = {v:.6g} {model.units.get(k, '')}".rstrip() for k, v in values.items()))
     print(modal_table(model, params, args.modes))
     print(f"wrote {path}")
+    if args.uff:
+        print(f"wrote {write_uff58(out, path / 'recording.uff')}")
     return 0

@@ -10,14 +10,19 @@ from .recording import (
     load_recording,
     write_recording,
 )
+from .uff import load_beam_description, read_uff58, write_uff58, write_uff_modes
 
 __all__ = [
     "Beam",
-    "TipBody",
     "Excitation",
-    "Sensor",
     "Recording",
     "RecordingError",
+    "Sensor",
+    "TipBody",
+    "load_beam_description",
     "load_recording",
+    "read_uff58",
     "write_recording",
+    "write_uff58",
+    "write_uff_modes",
 ]

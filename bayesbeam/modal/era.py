@@ -51,7 +51,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EraModes", "StabilizationDiagram", "era", "mac", "plot_stabilization", "stabilization"]
+__all__ = [
+    "EraModes",
+    "HankelSVD",
+    "StabilizationDiagram",
+    "default_rows",
+    "era",
+    "hankel_svd",
+    "mac",
+    "plot_stabilization",
+    "stabilization",
+    "subset",
+]
 
 
 @dataclass(frozen=True)
@@ -123,7 +134,12 @@ def _hankel(y, rows, cols, shift):
 
 
 @dataclass(frozen=True)
-class _Decomposition:
+class HankelSVD:
+    """SVD ``U S Vt`` of the block Hankel matrix H(0) of a free decay, and H(1).
+
+    One decomposition serves any number of model orders (:func:`era`, :func:`stabilization`).
+    """
+
     U: np.ndarray
     S: np.ndarray
     Vt: np.ndarray
@@ -132,16 +148,23 @@ class _Decomposition:
     rows: int
 
 
-def _decompose(y, n_rows, n_cols):
+def default_rows(n_samples: int, n_channels: int) -> int:
+    """Default Hankel block rows r: ``min(n_samples // 3, max(20, 300 // n_channels))``."""
+    return min(n_samples // 3, max(20, 300 // n_channels))
+
+
+def hankel_svd(y, n_rows: int | None = None, n_cols: int | None = None) -> HankelSVD:
+    """Decompose the free decay ``y`` (n_samples, n_channels); rows and columns as in :func:`era`."""
+    y = _as_channels(y)
     n_samples, m = y.shape
-    rows = n_rows or min(n_samples // 3, max(20, 300 // m))
+    rows = n_rows or default_rows(n_samples, m)
     cols = n_cols or n_samples - rows
     if rows < 2 or cols < 2 or rows + cols > n_samples:
         raise ValueError(
             f"Hankel of {rows} block rows x {cols} columns needs {rows + cols} samples, have {n_samples}"
         )
     U, S, Vt = np.linalg.svd(_hankel(y, rows, cols, 0), full_matrices=False)
-    return _Decomposition(U, S, Vt, _hankel(y, rows, cols, 1), m, rows)
+    return HankelSVD(U, S, Vt, _hankel(y, rows, cols, 1), m, rows)
 
 
 def _auto_order(S, max_order=200):
@@ -167,7 +190,7 @@ def _emac(q, p, weights):
     return float(np.sum(weights * ratio * phase) / np.sum(weights))
 
 
-def _all_modes(dec: _Decomposition, order: int, dt: float) -> EraModes:
+def _all_modes(dec: HankelSVD, order: int, dt: float) -> EraModes:
     """Realize the given order and return every upper-half-plane pole, unfiltered."""
     if not 1 <= order <= len(dec.S) or dec.S[order - 1] <= 0:
         raise ValueError(f"model order {order} exceeds the rank of the Hankel matrix")
@@ -208,7 +231,8 @@ def _indicators(shapes, last, lam, rows):
     return np.array(emac), np.array(mpc)
 
 
-def _subset(modes: EraModes, keep) -> EraModes:
+def subset(modes: EraModes, keep) -> EraModes:
+    """The modes selected by ``keep`` (boolean mask or indices), same order and settings."""
     return EraModes(
         modes.frequencies_hz[keep],
         modes.damping_ratios[keep],
@@ -244,13 +268,13 @@ def era(
     noise, whose extra poles the filters remove). Default: the largest drop in the
     singular values of H(0), rounded up to even -- fine for clean data; with noise,
     choose it from a stabilization diagram. ``n_rows`` (block rows r) defaults to
-    ``min(n_samples // 3, max(20, 300 // n_channels))``; ``n_cols`` to the remaining
+    ``default_rows(n_samples, n_channels)``; ``n_cols`` to the remaining
     samples. More columns average noise better; r * n_channels must exceed the order.
+    ``y`` may also be a :class:`HankelSVD` of the decay (then rows and columns are its own).
     """
-    y = _as_channels(y)
-    dec = _decompose(y, n_rows, n_cols)
+    dec = y if isinstance(y, HankelSVD) else hankel_svd(y, n_rows, n_cols)
     modes = _all_modes(dec, order or _auto_order(dec.S), dt)
-    return _subset(modes, _physical(modes, max_damping, min_emac, min_mpc))
+    return subset(modes, _physical(modes, max_damping, min_emac, min_mpc))
 
 
 def _stability(current: EraModes, previous: EraModes | None, freq_tol, damping_tol, mac_tol):
@@ -290,14 +314,14 @@ def stabilization(
     EMAC if ``min_emac`` > 0); a pole is *stable* if the previous order has one within
     ``freq_tol`` in frequency, ``damping_tol`` in damping (both relative) and with
     MAC >= ``mac_tol``. Physical modes stay stable as the order grows; noise poles wander.
+    ``y`` may also be a :class:`HankelSVD` of the decay, e.g. the one :func:`era` used.
     """
-    y = _as_channels(y)
-    dec = _decompose(y, n_rows, n_cols)
+    dec = y if isinstance(y, HankelSVD) else hankel_svd(y, n_rows, n_cols)
     orders = sorted(int(n) for n in orders)
     poles, stable_f, stable = [], [], []
     for n in orders:
         modes = _all_modes(dec, n, dt)
-        modes = _subset(modes, _physical(modes, max_damping, min_emac, 0.0))
+        modes = subset(modes, _physical(modes, max_damping, min_emac, 0.0))
         f_ok, ok = _stability(modes, poles[-1] if poles else None, freq_tol, damping_tol, mac_tol)
         poles.append(modes)
         stable_f.append(f_ok)
