@@ -20,6 +20,8 @@ from bayesbeam.io import RecordingError
 COMMANDS = {
     "simulate": "simulate",
     "fit": "fit",
+    "compare": "compare",
+    "batch": "batch",
     "ema": "ema",
     "era": "era",
     "import-uff": "import_uff",

@@ -15,8 +15,14 @@ import numpy as np
 from bayesbeam.inference.likelihood import NOISE_MODELS, BandProjection, Likelihood
 from bayesbeam.inference.posterior import LogPosterior
 from bayesbeam.inference.priors import Prior, default_priors, prior_from_table
-from bayesbeam.inference.sampler import (Chains, Optimum, find_optimum, laplace_covariance,
-                                         newton_shift, run_emcee)
+from bayesbeam.inference.sampler import (
+    Chains,
+    Optimum,
+    find_optimum,
+    laplace_covariance,
+    newton_shift,
+    run_emcee,
+)
 from bayesbeam.model import BeamModel
 from bayesbeam.response.linear import PASSBAND
 from bayesbeam.response.signals import EDGE, decimate

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy import linalg
+from scipy import linalg, signal
 
 NOISE_MODELS = ("white", "ar1")
 
@@ -155,6 +155,15 @@ class Likelihood:
             w = np.exp(-2j * np.pi * self.projection.frequencies / self.model.recording.fs)
             v = v / np.abs(1 - phi[None, :] * w[:, None]) ** 2
         return v
+
+    def draw_noise(self, noise: dict, shape, rng: np.random.Generator) -> np.ndarray:
+        """A draw of the noise model in time (n_samples, c): white, or each channel's AR(1) process."""
+        sigma = np.array([noise[f"sigma_{c}"] for c in self.channels])
+        e = rng.standard_normal(shape)
+        if self.noise == "ar1":
+            phi = np.array([noise[f"phi_{c}"] for c in self.channels])
+            e = np.stack([signal.lfilter([1.0], [1.0, -p], e[:, i]) for i, p in enumerate(phi)], axis=1)
+        return e * sigma[None, :]
 
     # ------------------------------------------------------------------ evaluation
     def residual(self, params: dict) -> np.ndarray:

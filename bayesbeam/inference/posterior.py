@@ -54,6 +54,11 @@ class LogPosterior:
             return -np.inf
         return value if np.isfinite(value) else -np.inf
 
+    def terms(self, theta) -> tuple[float, float]:
+        """(log prior, log likelihood) at theta; the likelihood is not evaluated off the prior's support."""
+        lp = self.log_prior(theta)
+        return (lp, self.log_likelihood(theta)) if np.isfinite(lp) else (-np.inf, -np.inf)
+
     def __call__(self, theta) -> float:
         lp = self.log_prior(theta)
         if not np.isfinite(lp):

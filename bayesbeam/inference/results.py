@@ -27,7 +27,6 @@ def build_inference_data(result, rng):
     post = result.problem.posterior
     lik = result.problem.likelihood
     values = result.values()
-    n_walkers, n_draws, _ = values.shape
     posterior = {n: values[..., i] for i, n in enumerate(post.names)}
     pointwise = _pointwise(post, result.chains.samples)
     rec = lik.model.recording
@@ -81,19 +80,8 @@ def predictive_replicates(result, rng, n: int) -> np.ndarray:
     for theta in flat[picks]:
         params, noise = post.split(theta)
         clean = lik.predict(params, noise)
-        out.append(clean + _noise(lik, noise, clean.shape, rng))
+        out.append(clean + lik.draw_noise(noise, clean.shape, rng))
     return np.array(out)
-
-
-def _noise(lik, noise, shape, rng):
-    sigma = np.array([noise[f"sigma_{c}"] for c in lik.channels])
-    e = rng.standard_normal(shape)
-    if lik.noise == "ar1":
-        phi = np.array([noise[f"phi_{c}"] for c in lik.channels])
-        from scipy.signal import lfilter
-
-        e = np.stack([lfilter([1.0], [1.0, -p], e[:, i]) for i, p in enumerate(phi)], axis=1)
-    return e * sigma[None, :]
 
 
 def _stats(draws: np.ndarray, tau: float, n_walkers: int, n_steps: int, burn: int) -> dict:

@@ -46,6 +46,11 @@ def worker_log_prob(theta) -> float:
     return _WORKER_POSTERIOR(theta)
 
 
+def worker_terms(theta) -> tuple[float, float]:
+    """(log prior, log likelihood) of the worker's log posterior, for tempered samplers."""
+    return _WORKER_POSTERIOR.terms(theta)
+
+
 def local_pool(posterior: LogPosterior, processes: int):
     """A process pool whose workers each hold one copy of ``posterior``."""
     import multiprocessing as mp

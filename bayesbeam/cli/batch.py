@@ -1,0 +1,101 @@
+"""``bayesbeam batch``: compare models on a campaign of recordings, resuming what finished.
+
+Each recording's comparison goes to ``OUT/<recording name>/`` (as ``bayesbeam compare`` writes
+it); a recording whose ``comparison.json`` exists is not run again. At the end ``OUT/batch.csv``
+and ``OUT/batch.json`` hold one row per recording and model: evidence, probability, rank and the
+posterior mean and 90 % interval of every parameter.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import os
+from pathlib import Path
+
+from bayesbeam.cli.common import UsageError
+from bayesbeam.cli.compare import add_comparison_options, comparison_config, model_list
+from bayesbeam.io import load_recording
+
+HELP = "compare models on many recordings (local processes or a Dask cluster), one table out"
+
+
+def add_arguments(p) -> None:
+    from bayesbeam.compare import DEFAULT_MODELS
+
+    p.add_argument("recordings", nargs="+", help="recording directories")
+    add_comparison_options(p, DEFAULT_MODELS)
+    p.add_argument("--out", required=True, help="output directory (one subdirectory per recording, batch.csv/json)")
+
+
+def run(args) -> int:
+    from bayesbeam.compare import compare
+    from bayesbeam.executors import get_executor
+    from bayesbeam.inference.sampler import stderr_progress
+    from bayesbeam.report.compare_outputs import write_comparison
+    from bayesbeam.report.fit_outputs import write_json
+
+    models = model_list(args.models)
+    config = comparison_config(args)
+    out = Path(args.out)
+    targets = _targets(args.recordings, out)
+    log = None if args.quiet else stderr_progress
+    executor = get_executor(args.executor, args.processes)
+    try:
+        for source, target in targets:
+            if (target / "comparison.json").exists():
+                _say(log, f"{source}: already compared in {target}, skipped")
+                continue
+            _say(log, f"{source}: comparing {len(models)} models")
+            results, summary = compare(load_recording(source), models, config, executor, log=log)
+            write_comparison(results, summary, target)
+    finally:
+        executor.close()
+    rows = [row for _, target in targets for row in table_rows(target)]
+    write_json({"models": models, "rows": rows}, out / "batch.json")
+    _write_csv(rows, out / "batch.csv")
+    print(f"{len(targets)} recordings x {len(models)} models: wrote batch.csv and batch.json in {out}")
+    return 0
+
+
+def _targets(recordings, out: Path):
+    targets, seen = [], {}
+    for source in recordings:
+        path = Path(source)
+        if not path.exists():
+            raise UsageError(f"{source}: no such recording directory")
+        name = path.name if path.name != "beam.toml" else path.parent.name
+        seen[name] = seen.get(name, 0) + 1
+        targets.append((source, out / (name if seen[name] == 1 else f"{name}_{seen[name]}")))
+    return targets
+
+
+def table_rows(target: Path) -> list[dict]:
+    """One row per model of a written comparison."""
+    summary = json.loads((target / "comparison.json").read_text())
+    rows = []
+    for rank, model in enumerate(summary["ranking"], start=1):
+        s = summary["models"][model]
+        row = {"recording": summary["recording"], "model": model, "rank": rank, "best": model == summary["best"],
+               "log_evidence": s["log_evidence"], "log_evidence_sd": s["log_evidence_sd"],
+               "probability": s["probability"]}
+        for name, p in s["posterior"].items():
+            row.update({f"{name}_mean": p["mean"], f"{name}_q05": p["q05"], f"{name}_q95": p["q95"]})
+        rows.append(row)
+    return rows
+
+
+def _write_csv(rows, path: Path) -> None:
+    columns = list(dict.fromkeys(k for row in rows for k in row))
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=columns)
+    writer.writeheader()
+    writer.writerows(rows)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp.write_text(buffer.getvalue())
+    os.replace(tmp, path)
+
+
+def _say(log, text):
+    if log is not None:
+        log(text)

@@ -1,0 +1,77 @@
+"""Where independent jobs run: this process, local worker processes, or a Dask cluster.
+
+``get_executor(None | "local" | "serial" | "tcp://host:8786", processes)`` returns an object
+with ``map(fn, *iterables) -> list`` (results in order) and ``close()``. Jobs must be module-level
+functions of picklable arguments. Local processes are spawned (not forked), so a job sees a fresh
+interpreter and BLAS is limited to one thread per worker (two workers on two cores, not two
+workers each starting two BLAS threads).
+"""
+from __future__ import annotations
+
+import os
+from concurrent.futures import ProcessPoolExecutor
+
+
+class SerialExecutor:
+    """Runs jobs one after another in this process (the default for one core or one job)."""
+
+    workers = 1
+
+    def map(self, fn, *iterables) -> list:
+        return list(map(fn, *iterables))
+
+    def close(self) -> None:
+        pass
+
+
+class LocalExecutor:
+    """A pool of ``processes`` spawned worker processes on this machine."""
+
+    def __init__(self, processes: int):
+        import multiprocessing as mp
+
+        self.workers = processes
+        # spawned workers inherit the environment: one BLAS thread each (this process has
+        # loaded its BLAS already, so it is unaffected)
+        for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+            os.environ.setdefault(name, "1")
+        self._pool = ProcessPoolExecutor(processes, mp_context=mp.get_context("spawn"))
+
+    def map(self, fn, *iterables) -> list:
+        return list(self._pool.map(fn, *iterables))
+
+    def close(self) -> None:
+        self._pool.shutdown()
+
+
+class DaskExecutor:
+    """Jobs on a ``dask.distributed`` cluster given by its scheduler address (or a Client)."""
+
+    def __init__(self, address):
+        from distributed import Client
+
+        self._own = not hasattr(address, "submit")
+        self.client = Client(address) if self._own else address
+        self.workers = max(1, sum(self.client.nthreads().values()))
+
+    def map(self, fn, *iterables) -> list:
+        futures = self.client.map(fn, *iterables, pure=False)
+        return self.client.gather(futures)
+
+    def close(self) -> None:
+        if self._own:
+            self.client.close()
+
+
+def get_executor(spec=None, processes: int | None = None):
+    """An executor from a command-line ``--executor`` value (see module docstring)."""
+    if spec is not None and not isinstance(spec, str):
+        return DaskExecutor(spec)
+    if spec and spec.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
+        return DaskExecutor(spec)
+    if spec not in (None, "local", "serial"):
+        raise ValueError(f"--executor {spec!r}: expected 'local', 'serial' or a Dask scheduler address "
+                         f"such as tcp://host:8786")
+    processes = processes or os.cpu_count() or 1
+    return SerialExecutor() if spec == "serial" or processes == 1 else LocalExecutor(processes)
+

@@ -1,0 +1,281 @@
+r"""Model evidence log Z by sequential Monte Carlo along a tempered path, with emcee moves.
+
+The evidence of a model is :math:`Z = \int L(\theta)\,\pi(\theta)\,d\theta`. It is reached from
+a normalised reference density :math:`q` (known :math:`Z_0 = 1`) through the path
+
+.. math:: f_\beta(\theta) = q(\theta)^{1-\beta}\,\bigl[L(\theta)\,\pi(\theta)\bigr]^{\beta},
+          \qquad 0 = \beta_0 < \beta_1 < \dots < \beta_T = 1,
+
+and :math:`Z = \prod_t Z_{\beta_t}/Z_{\beta_{t-1}}`, each ratio estimated by the mean incremental
+weight :math:`w_i = \exp\{(\beta_t - \beta_{t-1})\,[\log L + \log\pi - \log q](\theta_i)\}` of
+particles distributed as :math:`f_{\beta_{t-1}}` (Del Moral, Doucet & Jasra 2006). With
+:math:`q = \pi` this is the transitional MCMC of Ching & Chen (2007), tempering the likelihood
+alone. Each next :math:`\beta` is chosen by bisection so that the effective sample size of the
+incremental weights is ``target_ess`` x the particle count (Ching & Chen's rule); particles are
+then resampled (systematic) and moved by emcee's differential-evolution ensemble move (which
+uses the particle cloud itself as proposal scale) on :math:`f_{\beta_t}`
+until each has had ``min_accepted`` accepted moves on average. The last stage ends at
+:math:`\beta = 1` with a resample and a move, so the particles are posterior draws.
+
+The estimate of :math:`Z` is unbiased; :math:`\log Z` is biased low by about half its variance.
+Its uncertainty is measured, not modelled: :func:`evidence` runs independent repeats (different
+seeds, fresh reference draws) and reports the mean of :math:`\log Z` with the standard error
+sd / sqrt(repeats). The repeats are independent jobs, so they parallelise across processes or a
+cluster.
+
+The reference. :math:`q = \pi` is exact but needs many stages when the posterior is narrow
+against the prior. :func:`laplace_reference` builds a tighter one from the optimum: a
+multivariate Student-t (4 degrees of freedom, scale 1.5 x the Laplace covariance) over the
+parameters the data determine, and the prior itself over those they do not (a damping term the
+data do not need is flat down to its lower prior bound, which no Gaussian describes). SMC
+corrects any mismatch; a good reference only makes it cheaper.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import emcee
+import numpy as np
+from scipy import special
+
+#: effective sample size kept at each tempering step, as a fraction of the particles
+TARGET_ESS = 0.5
+#: mean accepted moves per particle in each mutation phase
+MIN_ACCEPTED = 3
+#: cap on mutation steps per tempering stage
+MAX_MOVE_STEPS = 60
+#: Student-t degrees of freedom and scale inflation of the Laplace reference
+REFERENCE_DF = 4.0
+REFERENCE_SCALE = 1.5
+#: a parameter counts as determined by the data when its Laplace sd is below this fraction of
+#: its prior sd (both in sampling coordinates) and it lies this many Laplace sd inside its support
+DETERMINED_FRACTION = 0.25
+DETERMINED_MARGIN = 3.0
+
+
+# ---------------------------------------------------------------------------- reference densities
+class Reference:
+    r"""A normalised density q over theta: a Student-t over ``tight`` coordinates, priors over the rest.
+
+    ``mean``/``cov`` (sampling coordinates, all dimensions; only the ``tight`` block is used),
+    ``priors``: one :class:`~bayesbeam.inference.priors.Prior` per dimension, ``tight``: boolean
+    mask. With no tight coordinate, q is the prior.
+    """
+
+    def __init__(self, priors, tight=None, mean=None, cov=None, df: float = REFERENCE_DF):
+        self.priors = list(priors)
+        d = len(self.priors)
+        self.tight = np.zeros(d, bool) if tight is None else np.asarray(tight, bool)
+        self.df = df
+        if self.tight.any():
+            idx = np.flatnonzero(self.tight)
+            self.mean = np.asarray(mean, float)[idx]
+            self.chol = np.linalg.cholesky(np.asarray(cov, float)[np.ix_(idx, idx)])
+            k = len(idx)
+            self._log_norm = (special.gammaln(0.5 * (df + k)) - special.gammaln(0.5 * df)
+                              - 0.5 * k * np.log(df * np.pi) - np.sum(np.log(np.diag(self.chol))))
+
+    @property
+    def ndim(self) -> int:
+        return len(self.priors)
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        out = np.empty((n, self.ndim))
+        for i, p in enumerate(self.priors):
+            if not self.tight[i]:
+                out[:, i] = p.draw(rng, n)
+        if self.tight.any():
+            z = rng.standard_normal((n, len(self.mean)))
+            scale = np.sqrt(self.df / rng.chisquare(self.df, n))
+            out[:, self.tight] = self.mean + scale[:, None] * (z @ self.chol.T)
+        return out
+
+    def log_density(self, theta: np.ndarray) -> np.ndarray:
+        theta = np.atleast_2d(theta)
+        out = np.zeros(len(theta))
+        for i, p in enumerate(self.priors):
+            if not self.tight[i]:
+                out += np.array([p.log_density(z) for z in theta[:, i]])
+        if self.tight.any():
+            k = len(self.mean)
+            r = np.linalg.solve(self.chol, (theta[:, self.tight] - self.mean).T)
+            out += self._log_norm - 0.5 * (self.df + k) * np.log1p(np.sum(r * r, axis=0) / self.df)
+        return out
+
+
+def laplace_reference(priors, theta, covariance) -> Reference:
+    """The reference of the module docstring from an optimum and its Laplace covariance."""
+    sd = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    tight = np.zeros(len(priors), bool)
+    for i, p in enumerate(priors):
+        lo, hi = p.bounds()
+        prior_sd = p.b if p.kind == "lognormal" else (hi - lo) / np.sqrt(12.0)
+        inside = p.kind == "lognormal" or min(theta[i] - lo, hi - theta[i]) > DETERMINED_MARGIN * sd[i]
+        tight[i] = 0 < sd[i] < DETERMINED_FRACTION * prior_sd and inside
+    cov = np.asarray(covariance)[np.ix_(tight, tight)]
+    if tight.any():
+        cov = _nearest_positive_definite(cov)
+    full = np.zeros_like(covariance)
+    full[np.ix_(tight, tight)] = cov * REFERENCE_SCALE**2
+    return Reference(priors, tight, theta, full)
+
+
+def _nearest_positive_definite(cov):
+    """cov with eigenvalues floored at 1e-12 of the largest (finite-difference Hessians can be noisy)."""
+    w, v = np.linalg.eigh(0.5 * (cov + cov.T))
+    w = np.maximum(w, 1e-12 * max(w.max(), 1e-300))
+    return (v * w) @ v.T
+
+
+# ---------------------------------------------------------------------------- the tempered target
+class TemperedTarget:
+    r"""log f_beta(theta) with (log pi, log L) as emcee blobs; picklable for process pools.
+
+    ``terms``: callable theta -> (log prior, log likelihood), e.g. ``LogPosterior.terms`` or, in
+    pool workers, :func:`bayesbeam.inference.sampler.worker_terms`.
+    """
+
+    def __init__(self, terms, reference: Reference, beta: float):
+        self.terms, self.reference, self.beta = terms, reference, beta
+
+    def __call__(self, theta):
+        log_prior, log_lik = self.terms(theta)
+        if not (np.isfinite(log_prior) and np.isfinite(log_lik)):
+            return -np.inf, log_prior, log_lik
+        log_q = float(self.reference.log_density(theta)[0])
+        return (1 - self.beta) * log_q + self.beta * (log_prior + log_lik), log_prior, log_lik
+
+
+# ---------------------------------------------------------------------------- one SMC run
+@dataclass
+class SMCRun:
+    """One SMC run: its log Z, the tempering ladder and the final (posterior) particles."""
+
+    log_z: float
+    betas: np.ndarray
+    particles: np.ndarray          # (n, ndim), sampling coordinates, equally weighted
+    log_likelihood: np.ndarray     # (n,)
+    log_prior: np.ndarray          # (n,)
+    acceptance: np.ndarray         # mean acceptance fraction per stage
+    n_evaluations: int
+    seconds: float
+
+
+def smc(terms, reference: Reference, rng: np.random.Generator, *, n_particles: int = 256,
+        target_ess: float = TARGET_ESS, min_accepted: float = MIN_ACCEPTED, pool=None,
+        max_stages: int = 200, progress=None) -> SMCRun:
+    """One adaptive SMC run from ``reference`` to the posterior (see module docstring)."""
+    started = time.perf_counter()
+    theta = reference.sample(rng, n_particles)
+    mapper = pool.map if pool is not None else map
+    log_prior, log_lik = (np.array(v, float) for v in zip(*mapper(terms, list(theta))))
+    log_q = reference.log_density(theta)
+    n_eval = n_particles
+    beta, log_z, betas, acceptance = 0.0, 0.0, [0.0], []
+    while beta < 1.0:
+        if len(betas) > max_stages:
+            raise RuntimeError(f"SMC needed more than {max_stages} tempering stages; the reference "
+                               f"is far from the posterior")
+        gain = np.where(np.isfinite(log_prior + log_lik), log_prior + log_lik - log_q, -np.inf)
+        step = _next_step(gain, 1.0 - beta, target_ess)
+        log_w = step * gain
+        log_z += special.logsumexp(log_w) - np.log(n_particles)
+        beta = 1.0 if beta + step >= 1.0 - 1e-12 else beta + step
+        betas.append(beta)
+        keep = _systematic_resample(log_w, rng)
+        theta, log_prior, log_lik, log_q = theta[keep], log_prior[keep], log_lik[keep], log_q[keep]
+        theta, log_prior, log_lik, accepted, used = _move(terms, reference, beta, theta, log_prior,
+                                                          log_lik, rng, min_accepted, pool)
+        log_q = reference.log_density(theta)
+        n_eval += used * n_particles
+        acceptance.append(accepted)
+        if progress is not None:
+            progress(f"SMC stage {len(betas) - 1}: beta = {beta:.4g}, log Z so far {log_z:.6g}, "
+                     f"{used} moves, acceptance {accepted:.2f}")
+    return SMCRun(float(log_z), np.array(betas), theta, log_lik, log_prior, np.array(acceptance),
+                  n_eval, time.perf_counter() - started)
+
+
+def _next_step(gain, remaining, target_ess) -> float:
+    """Largest beta increment whose incremental weights keep ESS >= target_ess x n (bisection)."""
+    n = np.sum(np.isfinite(gain))
+    if n == 0:
+        raise RuntimeError("no particle has a finite posterior: the reference misses the prior's support")
+
+    def ess(step):
+        log_w = step * gain
+        log_w = log_w - np.max(log_w)
+        w = np.exp(log_w)
+        return w.sum() ** 2 / np.sum(w * w)
+
+    target = target_ess * len(gain)
+    if ess(remaining) >= target:
+        return remaining
+    lo, hi = 0.0, remaining
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ess(mid) >= target else (lo, mid)
+    return max(lo, 1e-12)
+
+
+def _systematic_resample(log_w, rng) -> np.ndarray:
+    w = np.exp(log_w - special.logsumexp(log_w))
+    positions = (rng.random() + np.arange(len(w))) / len(w)
+    return np.minimum(np.searchsorted(np.cumsum(w), positions), len(w) - 1)
+
+
+def _move(terms, reference, beta, theta, log_prior, log_lik, rng, min_accepted, pool):
+    """emcee DE moves on f_beta until min_accepted accepted moves per particle on average.
+
+    (Not the snooker or stretch moves: after resampling, particles coincide, and a snooker move
+    between coinciding particles divides by zero while a stretch move between them cannot move.)
+    """
+    n, ndim = theta.shape
+    target = TemperedTarget(terms, reference, beta)
+    log_f = (1 - beta) * reference.log_density(theta) + beta * (log_prior + log_lik)
+    blobs = np.array(list(zip(log_prior, log_lik)), dtype=[("log_prior", float), ("log_lik", float)])
+    sampler = emcee.EnsembleSampler(n, ndim, target, pool=pool,
+                                    moves=emcee.moves.DEMove(),
+                                    blobs_dtype=[("log_prior", float), ("log_lik", float)])
+    sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
+    state = emcee.State(theta, log_prob=log_f, blobs=blobs)
+    steps = 0
+    while steps < MAX_MOVE_STEPS:
+        state = sampler.run_mcmc(state, 1, progress=False)
+        steps += 1
+        if np.mean(sampler.acceptance_fraction) * steps >= min_accepted:
+            break
+    b = state.blobs
+    return state.coords, np.asarray(b["log_prior"]), np.asarray(b["log_lik"]), \
+        float(np.mean(sampler.acceptance_fraction)), steps
+
+
+# ---------------------------------------------------------------------------- repeated runs
+@dataclass
+class Evidence:
+    """log Z from independent SMC repeats: mean, standard error, and the pooled posterior draws."""
+
+    log_z: float
+    log_z_sd: float
+    runs: list
+
+    @property
+    def samples(self) -> np.ndarray:
+        """Posterior draws pooled over repeats: (repeats, n_particles, ndim), sampling coordinates."""
+        return np.stack([r.particles for r in self.runs])
+
+    def as_dict(self) -> dict:
+        return {"log_evidence": self.log_z, "log_evidence_sd": self.log_z_sd,
+                "method": "SMC (adaptive tempering from a reference density, emcee DE moves)",
+                "repeats": [r.log_z for r in self.runs],
+                "stages": [len(r.betas) - 1 for r in self.runs],
+                "evaluations": int(sum(r.n_evaluations for r in self.runs)),
+                "seconds": float(sum(r.seconds for r in self.runs))}
+
+
+def combine_runs(runs) -> Evidence:
+    """Mean log Z over repeats, with the standard error of that mean (needs >= 2 repeats)."""
+    values = np.array([r.log_z for r in runs])
+    sd = float(np.std(values, ddof=1) / np.sqrt(len(values))) if len(values) > 1 else float("nan")
+    return Evidence(float(np.mean(values)), sd, list(runs))
