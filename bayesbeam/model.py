@@ -17,15 +17,23 @@ import numpy as np
 from scipy import linalg
 
 from bayesbeam.io import Recording
-from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics import effects as effect_catalogue
+from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics.basis import SplineBasis
 from bayesbeam.physics.effects import Setup
 from bayesbeam.physics.mechanisms import resolve
-from bayesbeam.response.linear import (ORDERS, STOPBAND, FrequencyGrid, drive_spectrum,
-                                       force_spectrum, release_spectrum, respond, static_offset)
+from bayesbeam.response.linear import (
+    ORDERS,
+    STOPBAND,
+    FrequencyGrid,
+    drive_spectrum,
+    force_spectrum,
+    release_spectrum,
+    respond,
+    static_offset,
+)
 from bayesbeam.response.signals import impact_window
-from bayesbeam.response.system import SecondOrderSystem
+from bayesbeam.response.system import SecondOrderSystem, undamped_modes
 
 PARAMETER_UNITS = {"EI": "N m^2"}
 
@@ -125,7 +133,20 @@ class BeamModel:
     # ------------------------------------------------------------------ physics
     def system(self, params) -> SecondOrderSystem:
         """The Galerkin system M w'' + D w' + K w - (memory) = B f at these parameters."""
-        v = self.values(params)
+        return self._system(self.values(params))
+
+    def _system(self, v: dict[str, float]) -> SecondOrderSystem:
+        """:meth:`system` at values already checked by :meth:`values`."""
+        damping, relaxation = self._damping(v)
+        mass, stiffness, modes = self._mass_stiffness(v)
+        system = SecondOrderSystem(mass, damping, stiffness, relaxation,
+                                   self.ops.K0 if relaxation else None, modes)
+        if relaxation is not None:
+            system.check_stable()
+        return system
+
+    def _damping(self, v: dict[str, float]):
+        """The mechanisms' summed damping matrix and relaxation transform (None without memory)."""
         ops = self.ops
         damping = np.zeros((ops.size, ops.size))
         relaxations = []
@@ -140,16 +161,32 @@ class BeamModel:
         if relaxations:
             relaxation = relaxations[0] if len(relaxations) == 1 else (
                 lambda s: sum(g(s) for g in relaxations))
-        mass, stiffness = ops.M, v["EI"] * ops.K0
+        return damping, relaxation
+
+    def _mass_stiffness(self, v: dict[str, float]):
+        """M and K with the effects' additions, and the undamped modes when known in advance.
+
+        Without added mass or stiffness (none, or zero at these values) M is parameter-free and
+        K = EI K0, whose modes are (EI omega_0^2, Phi_0) of (K0, M): computed once per model,
+        not once per call, and the same for a model with a vanishing effect as without it.
+        """
+        ops = self.ops
+        mass, stiffness, plain = ops.M, v["EI"] * ops.K0, True
         for e in self.effects:
             added_mass, added_stiffness = e.mass(ops, v, self.setup), e.stiffness(ops, v, self.setup)
-            mass = mass if added_mass is None else mass + added_mass
-            stiffness = stiffness if added_stiffness is None else stiffness + added_stiffness
-        system = SecondOrderSystem(mass, damping, stiffness, relaxation,
-                                   ops.K0 if relaxation else None)
-        if relaxation is not None:
-            system.check_stable()
-        return system
+            if added_mass is not None and np.any(added_mass):
+                mass, plain = mass + added_mass, False
+            if added_stiffness is not None and np.any(added_stiffness):
+                stiffness, plain = stiffness + added_stiffness, False
+        if not plain:
+            return mass, stiffness, None
+        lam0, phi0 = self._unit_modes
+        return mass, stiffness, (v["EI"] * lam0, phi0)
+
+    @cached_property
+    def _unit_modes(self) -> tuple[np.ndarray, np.ndarray]:
+        """Undamped modes of (K0, M): omega^2 per unit EI and Phi."""
+        return undamped_modes(self.ops.K0, self.ops.M)
 
     def poles(self, params) -> np.ndarray:
         """Oscillatory poles (rad/s), Im > 0, sorted by natural frequency."""
@@ -180,8 +217,10 @@ class BeamModel:
                 raise ValueError("free_decay recording: the state at `start` is unknown; pass "
                                  "initial= (coefficients of free_decay_basis, e.g. from fit_initial)")
             return self.free_decay_basis(params) @ np.asarray(initial, dtype=float)
-        system = self.system(params)
-        tau = self.delay(params)
+        # one check of the parameters per call: simulate sits in the sampler's inner loop
+        values = self.values(params)
+        system = self._system(values)
+        tau = self._delay(values)
         drive = self.drive if tau == 0 else self.drive * np.exp(-self.grid.s * tau)[:, None]
         y = respond(system, self.grid, self.rows, self.load, drive)
         if exc.kind == "release":
@@ -190,7 +229,9 @@ class BeamModel:
 
     def delay(self, params) -> float:
         """Total delay of the response channels behind the motion (s)."""
-        v = self.values(params)
+        return self._delay(self.values(params))
+
+    def _delay(self, v: dict[str, float]) -> float:
         return float(sum(e.delay(v) for e in self.effects))
 
     @cached_property

@@ -74,10 +74,11 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import fft, interpolate, signal, sparse
+
 from bayesbeam import BeamModel, load_recording
 from bayesbeam.response.linear import daq_passband
 from bayesbeam.response.system import SecondOrderSystem
-from scipy import fft, interpolate, signal, sparse
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RECORDING = os.path.join(ROOT, "data", "examples", "paper_q3_hammer")
@@ -325,8 +326,9 @@ def documented_response(model: BeamModel, system: SecondOrderSystem, pre: int = 
     the samples f_c(k dt) for k = -pre .. n-1 (f_c is not causal: see :class:`BandLimitedForce`);
     the response to these band-limited samples is then computed by the exponential-window FFT
     with H(sigma + i omega) alone. Up to the window's e^-18 wrap-around this is exact.
-    (bayesbeam instead multiplies by W(omega) *after* the exponential window, which applies
-    the passband kernel tilted by e^{sigma t}: see the README.)
+    bayesbeam applies W to the windowed spectrum at the window's complex frequency instead, the
+    same thing in exact arithmetic. H is bayesbeam's own ``system.transfer``: this reference
+    checks the time-domain convention, not H (which is checked against 40-digit solves).
     """
     from bayesbeam.response.linear import FrequencyGrid
 

@@ -37,12 +37,12 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 # the working tree's bayesbeam, even if another copy is installed
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
+import _common as c
 import numpy as np
-from bayesbeam import BeamModel, load_recording
-from bayesbeam.response import nonlinear as nl
 from scipy.integrate import solve_ivp
 
-import _common as c
+from bayesbeam import BeamModel, load_recording
+from bayesbeam.response import nonlinear as nl
 
 PRE = 128                    # samples integrated before t = 0 by solve_ivp (the force is acausal)
 SPLINE_FACTOR = 32

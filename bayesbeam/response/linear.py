@@ -109,15 +109,12 @@ class FrequencyGrid:
         return np.exp(-self.sigma * self.dt * np.arange(self.n))
 
     def spectrum(self, x: np.ndarray) -> np.ndarray:
-        """Windowed DFT of samples x (n, ...) on the kept frequencies (x's units)."""
-        full = fft.rfft(x * self.damp.reshape((-1,) + (1,) * (x.ndim - 1)), self.n_fft, axis=0)
-        return full[: self.freq.size]
+        """Windowed DFT of samples x (n, ...) on all n_fft/2 + 1 bins of :attr:`freq` (x's units)."""
+        return fft.rfft(x * self.damp.reshape((-1,) + (1,) * (x.ndim - 1)), self.n_fft, axis=0)
 
     def samples(self, spectrum: np.ndarray) -> np.ndarray:
         """Inverse of :meth:`spectrum`: undo the window and return n samples."""
-        full = np.zeros((self.n_fft // 2 + 1,) + spectrum.shape[1:], dtype=complex)
-        full[: self.freq.size] = spectrum
-        x = fft.irfft(full, self.n_fft, axis=0)[: self.n]
+        x = fft.irfft(spectrum, self.n_fft, axis=0)[: self.n]
         return x / self.damp.reshape((-1,) + (1,) * (x.ndim - 1))
 
 
