@@ -5,6 +5,7 @@ writes it atomically (temporary file, then rename).
 """
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
@@ -19,20 +20,55 @@ import numpy as np  # noqa: E402
 #: for a 2-D Gaussian, 1 - exp(-k^2/2) for k = 1, 2
 CORNER_LEVELS = (1 - np.exp(-0.5), 1 - np.exp(-2.0))
 COLORS = ("C0", "C3", "C2", "C1", "C4", "C5")
+#: how every figure is rendered, to a file or for embedding in a report
+SAVEFIG = {"dpi": 110, "bbox_inches": "tight"}
+#: SI unit of each sensor quantity
+SIGNAL_UNITS = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
 
 
 def save(fig, path) -> Path:
     """Write ``fig`` to ``path`` atomically and close it."""
     path = Path(path)
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}{path.suffix}")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    fig.savefig(tmp, **SAVEFIG)
     os.replace(tmp, path)
     plt.close(fig)
     return path
 
 
+def png_bytes(fig) -> bytes:
+    """``fig`` as PNG bytes (rendered as by ``save``), then closed."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", **SAVEFIG)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
 def _label(name: str, unit: str | None) -> str:
     return f"{name} [{unit}]" if unit and unit != "1" else name
+
+
+def signal_label(sensor) -> str:
+    """Axis label of a sensor's signal: its name and SI unit."""
+    return f"{sensor.name} [{SIGNAL_UNITS[sensor.quantity]}]"
+
+
+def predictive_columns(axes, t, y, lo, med, hi, windows, band_label="posterior predictive 90%"):
+    """Measured vs predictive median and 90% band (top row), residual (bottom row), per window.
+
+    ``axes``: (2, len(windows)); ``windows``: (sample slice, title) per column.
+    """
+    for col, (s, name) in enumerate(windows):
+        ax = axes[0, col]
+        ax.fill_between(t[s], lo[s], hi[s], color="C1", alpha=0.35, lw=0, label=band_label)
+        ax.plot(t[s], y[s], color="k", lw=0.8, label="measured")
+        ax.plot(t[s], med[s], color="C1", lw=0.8, ls="--", label="predictive median")
+        ax.set_title(name, fontsize=9)
+        axes[1, col].plot(t[s], y[s] - med[s], color="C3", lw=0.6)
+        axes[1, col].axhline(0, color="k", lw=0.5)
+        axes[1, col].set_xlabel("time [s]")
+    axes[1, 0].set_ylabel("residual")
+    axes[0, 0].legend(fontsize=8, loc="upper right")
 
 
 def corner_overlay(samples: list[np.ndarray], names: list[str], labels: list[str], *,
@@ -110,22 +146,10 @@ def fit_plot(result, channel: int = 0):
     sensor = rec.sensors[channel]
     i0, i1 = proj.i0, proj.i0 + proj.n_blocks * proj.block
     span = max(min(400, (i1 - i0) // 3), 1)  # two distinct zooms: the first and the last span
-    windows = [(i0, i0 + span, "start of the fitted window"), (i1 - span, i1, "late window")]
+    windows = [(slice(i0, i0 + span), "start of the fitted window"), (slice(i1 - span, i1), "late window")]
     fig, axes = plt.subplots(2, 2, figsize=(11, 5.5), sharex="col", gridspec_kw={"height_ratios": [3, 1.3]})
-    unit = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}[sensor.quantity]
-    for col, (a, b, name) in enumerate(windows):
-        s = slice(a, b)
-        ax = axes[0, col]
-        ax.fill_between(t[s], lo[s], hi[s], color="C1", alpha=0.35, lw=0, label="posterior predictive 90%")
-        ax.plot(t[s], y[s], color="k", lw=0.8, label="measured")
-        ax.plot(t[s], med[s], color="C1", lw=0.8, ls="--", label="predictive median")
-        ax.set_title(name, fontsize=9)
-        axes[1, col].plot(t[s], y[s] - med[s], color="C3", lw=0.6)
-        axes[1, col].axhline(0, color="k", lw=0.5)
-        axes[1, col].set_xlabel("time [s]")
-    axes[0, 0].set_ylabel(f"{sensor.name} [{unit}]")
-    axes[1, 0].set_ylabel("residual")
-    axes[0, 0].legend(fontsize=8, loc="upper right")
+    predictive_columns(axes, t, y, lo, med, hi, windows)
+    axes[0, 0].set_ylabel(signal_label(sensor))
     fig.suptitle(f"{result.problem.model.name}: measured vs posterior predictive "
                  f"(band 0-{proj.max_frequency:.0f} Hz fitted)", fontsize=10)
     fig.tight_layout()

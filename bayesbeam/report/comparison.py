@@ -1,0 +1,493 @@
+"""The model-comparison report: one self-contained HTML file a reviewer reads on a laptop.
+
+Sections, in the order a reader asks the questions: the verdict (which mechanism, how sure) with
+the evidence and the cheap screens; damping per mode, measured against each model's predictive
+interval (where the paper's argument shows: air damping in low modes, internal damping in high
+ones); the time-history fits; residual spectra against the noise level; the posterior predictive
+p-values; the posteriors; and the convergence diagnostics that say whether to trust the numbers.
+
+Figures are PNGs embedded as base64 data and the CSS is inline, so the file opens anywhere without
+a network. A small inline script records on ``<body data-figures-loaded="ok/total">`` how many
+images decoded, so a headless browser can check every figure.
+"""
+from __future__ import annotations
+
+import base64
+import html
+import os
+from pathlib import Path
+
+import numpy as np
+
+from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, SPECTRUM_BANDS
+from bayesbeam.compare import strength
+
+# plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
+from bayesbeam.report.plots import (
+    COLORS,
+    SIGNAL_UNITS,
+    corner_overlay,
+    plt,
+    png_bytes,
+    predictive_columns,
+    signal_label,
+)
+
+#: (anchor, title) of the report's sections, in order
+SECTIONS = (("verdict", "Verdict"), ("modes", "Damping per mode"), ("fits", "Time histories"),
+            ("spectra", "Residual spectra"), ("checks", "Posterior predictive checks"),
+            ("posteriors", "Posteriors"), ("convergence", "Convergence"))
+#: posterior predictive p-values below this are highlighted
+P_FLAG = 0.01
+#: R-hat across SMC repeats above this is flagged (Vehtari et al. 2021)
+RHAT_FLAG = 1.01
+#: the time-history zoom: at most this long (a quarter second shows the impact and the first
+#: cycles of the low modes) and at most a fifth of the fitted window
+ZOOM_SECONDS = 0.25
+#: figure width in inches: 990 px at the 110 dpi of ``plots.SAVEFIG``, within a laptop screen
+WIDTH = 9.0
+#: corner sizes its figures at 2 in per parameter; 1.5 in still keeps the tick labels apart and
+#: fits up to five parameters (q3 with effects) on a laptop screen
+CORNER_SHRINK = 0.75
+
+STYLE = """
+body { font: 15px/1.45 system-ui, sans-serif; color: #222; max-width: 1000px; margin: 0 auto; padding: 0 16px 48px; }
+h1 { font-size: 1.5em; margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.8em; }
+nav a { margin-right: 1em; } .meta { color: #666; font-size: 0.9em; }
+.verdict { font-size: 1.08em; background: #eef4fb; border-left: 4px solid #3a78c2; padding: 10px 14px; }
+table { border-collapse: collapse; margin: 10px 0 16px; font-size: 0.88em; }
+th, td { border: 1px solid #ccc; padding: 3px 7px; text-align: right; vertical-align: top; }
+th { background: #f3f3f3; } .text { text-align: left; }
+th small { display: block; font-weight: normal; color: #555; max-width: 16em; text-align: left; }
+.bad { background: #f8d0d0; font-weight: 600; } .best { background: #e3f2e3; }
+figure { margin: 12px 0 20px; } figure img { max-width: 100%; height: auto; display: block; }
+figcaption { font-size: 0.88em; color: #444; }
+.grid { display: flex; flex-wrap: wrap; align-items: flex-end; gap: 0 24px; } ul.caveats li { margin-bottom: 4px; }
+"""
+
+SCRIPT = """
+window.addEventListener("load", function () {
+  var images = Array.prototype.slice.call(document.images);
+  var ok = images.filter(function (img) { return img.complete && img.naturalWidth > 0; }).length;
+  document.body.dataset.figuresLoaded = ok + "/" + images.length;
+});
+"""
+
+
+def write_report(results: dict, summary: dict, path) -> Path:
+    """Write the report of a comparison (``compare()``'s results and summary) to ``path``, atomically."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp.write_text(render(results, summary), encoding="utf-8")
+    os.replace(tmp, path)
+    return path
+
+
+def render(results: dict, summary: dict) -> str:
+    """The report's HTML."""
+    ranking = summary["ranking"]
+    colors = {m: COLORS[i % len(COLORS)] for i, m in enumerate(ranking)}
+    body = [_header(summary),
+            _verdict_section(summary),
+            _modes_section(summary, colors),
+            _fits_section(results, summary),
+            _spectra_section(results, summary),
+            _checks_section(results, summary),
+            _posteriors_section(results, summary),
+            _convergence_section(results, summary)]
+    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            f"<title>bayesbeam model comparison</title><style>{STYLE}</style>"
+            f"<script>{SCRIPT}</script></head>\n<body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+# ---------------------------------------------------------------------------- sections
+def _header(summary) -> str:
+    nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in SECTIONS)
+    rec = summary.get("recording") or "(recording given in memory)"
+    return (f"<h1>Which damping mechanism? Model comparison</h1><p class=\"meta\">Recording: {_esc(rec)}. "
+            f"{len(summary['ranking'])} models compared in {summary['seconds']:.0f} s.</p><nav>{nav}</nav>")
+
+
+def _verdict_section(summary) -> str:
+    caveats = _caveats(summary)
+    caveat_html = ("<p>Caveats:</p><ul class=\"caveats\">" + "".join(f"<li>{_esc(c)}</li>" for c in caveats)
+                   + "</ul>") if caveats else ""
+    return (_h2("verdict") + f'<p class="verdict">{_esc(summary["verdict"])}</p>' + caveat_html
+            + "<h3>Evidence</h3>" + _evidence_table(summary)
+            + "<p>log Z: the log marginal likelihood (nats) by sequential Monte Carlo, mean of independent "
+              "repeats &plusmn; its standard error. Probabilities assume equal prior probabilities of the "
+              "models. Strength: Kass &amp; Raftery (1995) for the best model against each other one.</p>"
+            + "<h3>Cheap screens</h3>" + _screens_table(summary)
+            + "<p>Each screen approximates what the evidence or a predictive score measures, under the "
+              "assumption printed under its name; where they disagree with the SMC evidence, trust the "
+              "evidence.</p>")
+
+
+def _caveats(summary) -> list[str]:
+    """What should make a reader less sure: unconverged repeats, a coarse grid, missed modes."""
+    out = []
+    models = summary["models"]
+    unconverged = [f"{m} ({name} {value:.3f})" for m in summary["ranking"]
+                   for name, value in [_worst_rhat(models[m])] if value > RHAT_FLAG]
+    if unconverged:
+        out.append(f"The SMC repeats disagree (R-hat > {RHAT_FLAG}) for {', '.join(unconverged)}: more particles "
+                   f"or repeats would sharpen these posteriors and evidences.")
+    coarse = [f"{m} ({models[m]['discretisation_check']['max_shift_sd']:.3g} sd)" for m in summary["ranking"]
+              if not models[m]["discretisation_check"]["passed"]]
+    if coarse:
+        out.append(f"A finer spline grid would move the optimum by more than the tolerance for "
+                   f"{', '.join(coarse)}: those estimates are limited by the discretisation (see Convergence).")
+    best = summary["best"]
+    missed = [str(row["mode"]) for row in summary["models"][best]["modes"]
+              if _outside(row["measured_damping_ratio"], row["predicted_damping_ratio_90"])]
+    if missed:
+        out.append(f"The measured damping ratio of mode(s) {', '.join(missed)} lies outside the best "
+                   f"model's predictive 90% interval.")
+    return out
+
+
+def _evidence_table(summary) -> str:
+    models, best = summary["models"], summary["best"]
+    rows = []
+    for m in summary["ranking"]:
+        s = models[m]
+        lbf = s["log_bayes_factor_vs_best"]
+        sd = np.hypot(s["log_evidence_sd"], models[best]["log_evidence_sd"])
+        rows.append([_esc(m), _esc(_mechanisms(s)), f"{s['log_evidence']:.2f} &plusmn; {s['log_evidence_sd']:.2f}",
+                     "&mdash;" if m == best else f"{lbf:.2f} &plusmn; {sd:.2f}", _probability(s["probability"]),
+                     "best" if m == best else _esc(strength(-lbf))])
+    head = ["model", "mechanisms", "log Z [nats]", "log Bayes factor vs best", "probability",
+            "evidence for the best"]
+    return _table(head, rows, text_columns=2, highlight_first=True)
+
+
+def _screens_table(summary) -> str:
+    models = summary["models"]
+    first = models[summary["ranking"][0]]["screens"]
+    labels = {"bic": "BIC log Z", "laplace": "Laplace log Z", "psis_lfo": "PSIS-LFO elpd",
+              "psis_loo": "PSIS-LOO elpd"}
+    head = ["model", "SMC log Z<small>reference: no approximation beyond Monte Carlo error</small>"]
+    head += [f"{labels[k]}<small>assumes {_esc(first[k]['assumes'])}</small>" for k in labels]
+    rows = []
+    for m in summary["ranking"]:
+        s = models[m]["screens"]
+        lfo, loo = s["psis_lfo"], s["psis_loo"]
+        rows.append([_esc(m), f"{models[m]['log_evidence']:.1f}", _number(s["bic"]["log_evidence"], ".1f"),
+                     _number(s["laplace"]["log_evidence"], ".1f"),
+                     (f"{lfo['elpd']:.1f}<br><small>{lfo['unreliable_steps']} of {lfo['predicted_blocks']} "
+                      f"steps k &gt; 0.7</small>"),
+                     f"{loo['elpd']:.1f}<br><small>{loo['unreliable_blocks']} blocks k &gt; 0.7</small>"])
+    return _table(head, rows)
+
+
+def _modes_section(summary, colors) -> str:
+    z_table = _mode_table(summary, "measured_damping_ratio", "predicted_damping_ratio_90", 100.0, ".3g")
+    f_table = _mode_table(summary, "measured_frequency_hz", "predicted_frequency_hz_90", 1.0, ".6g")
+    caption = ("Damping ratio of each mode: measured (black) and each model's posterior predictive 90% "
+               "interval (bars), both identified by ERA on the free decay after the excitation. "
+               "Air damping falls with frequency, strain-rate damping rises with it.")
+    return (_h2("modes")
+            + "<p>Measured modal damping ratio and frequency (ERA on the recording) against each model's "
+              "90% interval of the same quantity on its replicated recordings. Cells outside the interval "
+              "are highlighted.</p>"
+            + "<h3>Damping ratio &zeta; [%]</h3>" + z_table + "<h3>Frequency f [Hz]</h3>" + f_table
+            + _figure(_mode_plot(summary, colors), "damping ratio against mode frequency", caption))
+
+
+def _mode_table(summary, measured_key, interval_key, scale, fmt) -> str:
+    """Rows: modes; columns: the measurement, then each model's 90% interval (flagged when it misses)."""
+    ranking, models = summary["ranking"], summary["models"]
+    rows_by_model = {m: {row["mode"]: row for row in models[m]["modes"]} for m in ranking}
+    modes = sorted({k for rows in rows_by_model.values() for k in rows})
+    table = []
+    for k in modes:
+        measured = next((r[k][measured_key] for r in rows_by_model.values()
+                         if k in r and r[k][measured_key] is not None), None)
+        cells = [str(k), _number(None if measured is None else measured * scale, fmt)]
+        for m in ranking:
+            row = rows_by_model[m].get(k)
+            cells.append(_interval_cell(row, measured_key, interval_key, scale, fmt))
+        table.append(cells)
+    return _table(["mode", "measured"] + [_esc(m) for m in ranking], table)
+
+
+def _interval_cell(row, measured_key, interval_key, scale, fmt) -> str:
+    if row is None or row[interval_key] is None:
+        return "n/a"
+    lo, hi = (v * scale for v in row[interval_key])
+    text = f"{lo:{fmt}}&ndash;{hi:{fmt}}"
+    return _flag(text, _outside(row[measured_key], row[interval_key]))
+
+
+def _mode_plot(summary, colors):
+    """zeta against mode frequency (log-log): measured points and each model's 90% interval."""
+    ranking = summary["ranking"]
+    fig, ax = plt.subplots(figsize=(WIDTH * 0.75, 3.8))
+    # models side by side around each mode: small multiplicative offsets on the log axis
+    offsets = 1 + 0.035 * (np.arange(len(ranking)) - (len(ranking) - 1) / 2)
+    measured = {}
+    for i, m in enumerate(ranking):
+        rows = [r for r in summary["models"][m]["modes"] if r["predicted_damping_ratio_90"] is not None]
+        f = np.array([r["model_frequency_hz"] for r in rows]) * offsets[i]
+        lo, hi = np.array([r["predicted_damping_ratio_90"] for r in rows]).reshape(-1, 2).T
+        ax.vlines(f, lo, hi, color=colors[m], lw=5, alpha=0.7, label=f"{m} (90% predictive)")
+        measured.update({r["mode"]: (r["measured_frequency_hz"], r["measured_damping_ratio"])
+                         for r in summary["models"][m]["modes"]
+                         if r["mode"] not in measured and r["measured_damping_ratio"] is not None})
+    f_obs, z_obs = np.array(list(measured.values())).reshape(-1, 2).T
+    ax.plot(f_obs, z_obs, "k_", ms=16, mew=2, label="measured")
+    ax.set(xscale="log", yscale="log", xlabel="mode frequency f [Hz]", ylabel="damping ratio ζ")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    return fig
+
+
+def _fits_section(results, summary) -> str:
+    intro = ("<p>The measured signal against the median and 90% band of the noiseless prediction over "
+             "posterior draws (noise not added), in the fitted window: a zoom on its start and the whole; "
+             "below, the residual measured minus median.</p>")
+    parts = [_h2("fits"), intro]
+    for m in summary["ranking"]:
+        sensors = results[m].problem.model.recording.sensors
+        for c, sensor in enumerate(sensors):
+            parts.append(_figure(_time_history_plot(results[m], summary["models"][m], c),
+                                 f"time history fit of {m}, {sensor.name}", ""))
+    return "".join(parts)
+
+
+def _time_history_plot(result, model_summary, channel):
+    band = result.check.band
+    rec = result.problem.model.recording
+    t = band["time"]
+    y, lo, med, hi = (band[k][:, channel] for k in ("observed", "q05", "q50", "q95"))
+    span = max(min(len(t) // 5, round(ZOOM_SECONDS * rec.fs)), 2)
+    windows = [(slice(0, span), f"first {span / rec.fs:.2f} s"), (slice(None), "whole fitted window")]
+    fig, axes = plt.subplots(2, 2, figsize=(WIDTH, 3.9), sharex="col", gridspec_kw={"height_ratios": [3, 1.3],
+                                                                                      "width_ratios": [1, 1.6]})
+    predictive_columns(axes, t, y, lo, med, hi, windows, band_label="prediction 90%")
+    axes[0, 0].set_ylabel(signal_label(rec.sensors[channel]))
+    fig.suptitle(_title(result.name, model_summary), fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
+def _spectra_section(results, summary) -> str:
+    caption = ("Amplitude of the Hann-windowed spectrum of the band-limited residual (measured minus the "
+               "predictive median), per channel, against the RMS level the model's noise (posterior median "
+               "sigma) has there (dashed): a residual standing above the dashed line is signal the model "
+               "leaves out.")
+    return (_h2("spectra") + _figure(_spectra_plot(results, summary), "residual spectra against the noise level",
+                                     caption))
+
+
+def _spectra_plot(results, summary):
+    ranking = summary["ranking"]
+    ncols = min(2, len(ranking))
+    nrows = -(-len(ranking) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(WIDTH, 2.3 * nrows + 0.4), sharex=True, sharey=True,
+                             squeeze=False)
+    for ax, m in zip(axes.flat, ranking):
+        band, rec = results[m].check.band, results[m].problem.model.recording
+        f, amplitude = band["residual_frequency_hz"], band["residual_amplitude"]
+        for c, sensor in enumerate(rec.sensors):
+            post = summary["models"][m]["posterior"]
+            phi = post.get(f"phi_{sensor.name}", {}).get("q50", 0.0)
+            level = noise_level(f, post[f"sigma_{sensor.name}"]["q50"], len(band["time"]), rec.fs, phi)
+            color = COLORS[c % len(COLORS)]
+            ax.semilogy(f, amplitude[:, c], color=color, lw=0.7, label=f"residual {sensor.name}")
+            ax.semilogy(f, level, color=color, ls="--", lw=1.2, label=f"noise level {sensor.name}")
+        ax.set_title(m, fontsize=9)
+    for ax in axes.flat[len(ranking):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("frequency [Hz]")
+    units = sorted({SIGNAL_UNITS[s.quantity] for s in results[ranking[0]].problem.model.recording.sensors})
+    for ax in axes[:, 0]:
+        ax.set_ylabel(f"residual amplitude [{', '.join(units)}]")
+    axes[0, 0].legend(fontsize=7, loc="upper right")
+    fig.tight_layout()
+    return fig
+
+
+def noise_level(frequency, sigma, n, fs, phi=0.0) -> np.ndarray:
+    r"""RMS amplitude of the noise model in the Hann-windowed rfft of n samples, per frequency.
+
+    White noise of sd sigma has :math:`E|X_k|^2 = \sigma^2 \sum_j w_j^2` in every bin (w the Hann
+    window); AR(1) noise with coefficient phi is that shaped by :math:`1/|1 - \phi e^{-2\pi i f/f_s}|`.
+    """
+    white = sigma * np.sqrt(np.sum(np.hanning(n) ** 2))
+    return white / np.abs(1 - phi * np.exp(-2j * np.pi * np.asarray(frequency) / fs))
+
+
+def _checks_section(results, summary) -> str:
+    ranking, models = summary["ranking"], summary["models"]
+    names = list(dict.fromkeys(k for m in ranking for k in models[m]["ppc"]))
+    replicates = len(next(iter(results[ranking[0]].check.statistics.values()))["replicated"])
+    rows = []
+    for name in names:
+        cells = [_esc(name)]
+        for m in ranking:
+            p = models[m]["ppc"].get(name, {}).get("p_value")
+            cells.append("n/a" if p is None else _flag(f"{p:.2g}", p < P_FLAG))
+        rows.append(cells)
+    return (_h2("checks")
+            + f"<p>Posterior predictive p-values: how often the model's {replicates} replicated recordings are "
+              f"at least as extreme as the measured one (so p is resolved to 1/{replicates}). p &lt; {P_FLAG} "
+              f"(highlighted) says the recording is unlike the model's own replicates. residual_spectrum: "
+              f"largest residual power over the noise variance in {SPECTRUM_BANDS} frequency bands; "
+              f"ljung_box: residual autocorrelation (Ljung-Box Q, {LJUNG_BOX_LAGS} lags); zeta_mode&lt;m&gt;, "
+              f"frequency_mode&lt;m&gt;: damping ratio and frequency of mode m by ERA (two-sided). n/a: the "
+              f"mode was not identified.</p>"
+            + _table(["statistic"] + [_esc(m) for m in ranking], rows))
+
+
+def _posteriors_section(results, summary) -> str:
+    corners = "".join(_figure(_corner(results[m], summary["models"][m]), f"corner plot of {m}", "")
+                      for m in summary["ranking"])
+    return (_h2("posteriors") + "<p>Posterior median and 90% interval of every parameter (SI units).</p>"
+            + _posterior_table(summary)
+            + "<p>Corner plots of the model parameters: contours enclose 39% and 86% of the posterior mass "
+              "(the 1- and 2-sigma levels of a 2-D Gaussian); the diagonal shows the marginal densities.</p>"
+            + f'<div class="grid">{corners}</div>')
+
+
+def _posterior_table(summary) -> str:
+    ranking, models = summary["ranking"], summary["models"]
+    names = list(dict.fromkeys(k for m in ranking for k in models[m]["posterior"]))
+    rows = []
+    for name in names:
+        unit = next(models[m]["posterior"][name]["unit"] for m in ranking if name in models[m]["posterior"])
+        cells = [_esc(name), _esc(unit)]
+        for m in ranking:
+            q = models[m]["posterior"].get(name)
+            cells.append("&mdash;" if q is None else
+                         f"{q['q50']:.4g}<br><small>{q['q05']:.4g}&ndash;{q['q95']:.4g}</small>")
+        rows.append(cells)
+    return _table(["parameter", "unit"] + [_esc(m) for m in ranking], rows, text_columns=2)
+
+
+def _corner(result, model_summary):
+    post = result.problem.posterior
+    k = len(post.model_names)
+    draws = result.values()[..., :k].reshape(-1, k)
+    fig = corner_overlay([draws], list(post.model_names), [result.name], units=result.problem.model.units)
+    # the contour caption is the section's, once, and one model needs no legend: a short title
+    # keeps small corners two to a row
+    fig.suptitle(_title(result.name, model_summary), fontsize=10, y=1.02)
+    fig.legends.clear()
+    fig.set_size_inches(fig.get_size_inches() * CORNER_SHRINK)
+    # corner places axis labels 0.3 panel widths out; keep that distance in inches, clear of the
+    # tick labels, now that the panels are smaller
+    pad = 0.3 / CORNER_SHRINK
+    for ax in fig.axes:
+        ax.xaxis.set_label_coords(0.5, -pad)
+        ax.yaxis.set_label_coords(-pad, 0.5)
+    return fig
+
+
+def _convergence_section(results, summary) -> str:
+    ranking, models = summary["ranking"], summary["models"]
+    method = models[ranking[0]]["evidence"]["method"]
+    return (_h2("convergence")
+            + f"<p>Evidence: {_esc(method)}. Each repeat is an independent run; the final particles of all "
+              f"repeats are the posterior draws, and R-hat compares the repeats (flagged above {RHAT_FLAG}). "
+              f"Acceptance: the mean fraction of accepted moves per tempering stage (its range over "
+              f"stages).</p>" + _smc_table(results, summary)
+            + "<h3>Discretisation check</h3><p>The optimum at the spline grid N used against the next finer "
+              "grid; a shift above the tolerance (in posterior sd) means the grid limits the estimates.</p>"
+            + _discretisation_table(summary))
+
+
+def _smc_table(results, summary) -> str:
+    rows = []
+    for m in summary["ranking"]:
+        s = summary["models"][m]
+        runs = results[m].evidence.runs
+        acceptance = np.concatenate([r.acceptance for r in runs])
+        name, worst = _worst_rhat(s)
+        rows.append([_esc(m), ", ".join(f"{z:.2f}" for z in s["evidence"]["repeats"]),
+                     ", ".join(str(n) for n in s["evidence"]["stages"]),
+                     f"{acceptance.min():.2f}&ndash;{acceptance.max():.2f}",
+                     _flag(f"{worst:.3f} ({_esc(name)})", worst > RHAT_FLAG),
+                     f"{s['evidence']['evaluations']:,}", f"{s['evidence']['seconds']:.1f}"])
+    head = ["model", "log Z per repeat", "stages per repeat", "acceptance", "max R-hat", "evaluations",
+            "seconds"]
+    return _table(head, rows)
+
+
+def _discretisation_table(summary) -> str:
+    rows = []
+    for m in summary["ranking"]:
+        d = summary["models"][m]["discretisation_check"]
+        name = max(d["shift_sd"], key=d["shift_sd"].get)
+        rows.append([_esc(m), str(d["n_intervals"]) + (" (chosen)" if d["automatic"] else " (given)"),
+                     str(d["refined_n_intervals"]), f"{d['max_shift_sd']:.3g} ({_esc(name)})",
+                     str(d["tolerance_sd"]), _flag("passed" if d["passed"] else "failed", not d["passed"])])
+    return _table(["model", "N", "finer N", "largest shift [sd]", "tolerance [sd]", "check"], rows)
+
+
+# ---------------------------------------------------------------------------- HTML helpers
+def _worst_rhat(model_summary) -> tuple[str, float]:
+    """(parameter, R-hat) of the least converged parameter; R-hat to the three decimals shown, so
+    that a flagged value never reads as the threshold itself."""
+    name, value = max(((k, v["r_hat"]) for k, v in model_summary["posterior"].items()), key=lambda kv: kv[1])
+    return name, round(value, 3)
+
+
+def _h2(anchor) -> str:
+    return f'<h2 id="{anchor}">{dict(SECTIONS)[anchor]}</h2>'
+
+
+def _table(head, rows, text_columns=1, highlight_first=False) -> str:
+    """A table of already-escaped HTML cells: the first ``text_columns`` left-aligned, numbers right;
+    ``highlight_first`` marks the first row (the best model)."""
+
+    def cells(tag, row):
+        return "".join(f'<{tag} class="text">{c}</{tag}>' if j < text_columns else f"<{tag}>{c}</{tag}>"
+                       for j, c in enumerate(row))
+
+    out = [f"<table><thead><tr>{cells('th', head)}</tr></thead><tbody>"]
+    for i, row in enumerate(rows):
+        cls = ' class="best"' if highlight_first and i == 0 else ""
+        out.append(f"<tr{cls}>{cells('td', row)}</tr>")
+    return "".join(out) + "</tbody></table>"
+
+
+def _figure(fig, alt, caption) -> str:
+    data = base64.b64encode(png_bytes(fig)).decode("ascii")
+    cap = f"<figcaption>{_esc(caption)}</figcaption>" if caption else ""
+    return f'<figure><img alt="{_esc(alt)}" src="data:image/png;base64,{data}">{cap}</figure>'
+
+
+def _flag(text, bad) -> str:
+    return f'<span class="bad">{text}</span>' if bad else text
+
+
+def _esc(text) -> str:
+    return html.escape(str(text))
+
+
+def _number(value, fmt) -> str:
+    return "n/a" if value is None else f"{value:{fmt}}"
+
+
+def _probability(p) -> str:
+    return f"{p:.3f}" if p >= 1e-3 else f"{p:.1e}"
+
+
+def _title(name, model_summary) -> str:
+    """A model's name, with its mechanisms when the name does not already say them."""
+    mechanisms = _mechanisms(model_summary)
+    return name if mechanisms == name else f"{name} ({mechanisms})"
+
+
+def _mechanisms(model_summary) -> str:
+    text = " + ".join(model_summary["mechanisms"])
+    return text + (" with " + ", ".join(model_summary["effects"]) if model_summary["effects"] else "")
+
+
+def _outside(value, interval) -> bool:
+    return value is not None and interval is not None and not interval[0] <= value <= interval[1]
+
