@@ -1,0 +1,61 @@
+"""bayesbeam compare and batch: outputs, refusals, and a resumable campaign on a Dask cluster."""
+import csv
+import json
+
+import pytest
+
+from bayesbeam.cli import main
+from bayesbeam.io import write_recording
+from tests.inference import cases
+
+CHEAP = ["--models", "air,q1", "--n-intervals", "6", "--repeats", "2", "--replicates", "10", "--quiet"]
+
+
+@pytest.fixture(scope="module")
+def recordings(tmp_path_factory):
+    root = tmp_path_factory.mktemp("recs")
+    paths = []
+    for name, seed in (("hit_a", 3), ("hit_b", 4)):
+        rec, _ = cases.simulated("q1", seed=seed, fs=256.0)
+        paths.append(write_recording(rec, root / name))
+    return [str(p) for p in paths]
+
+
+def test_compare_writes_json_report_and_posteriors(recordings, tmp_path, capsys):
+    import arviz as az
+
+    out = tmp_path / "cmp"
+    assert main(["compare", recordings[0], *CHEAP, "--executor", "serial", "--out", str(out)]) == 0
+    summary = json.loads((out / "comparison.json").read_text())
+    assert summary["best"] == "q1" and summary["ranking"] == ["q1", "air"]
+    assert (out / "report.html").stat().st_size > 10000
+    idata = az.from_netcdf(out / "posteriors" / "q1.nc")
+    assert idata.posterior.sizes["chain"] == 2 and "cdI" in idata.posterior
+    printed = capsys.readouterr().out
+    assert "q1" in printed and "log Z" in printed
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--models", "q1,wet_towel"], "wet_towel"),
+    (["--models", "air,q1", "--repeats", "1"], "at least 2"),
+    (["--models", "air", "--executor", "cluster"], "tcp://host:8786"),
+])
+def test_bad_input_exits_2_naming_it(recordings, tmp_path, capsys, argv, message):
+    assert main(["compare", recordings[0], *argv, "--out", str(tmp_path / "x")]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_batch_on_a_dask_cluster_writes_one_table_and_resumes(recordings, tmp_path, capsys):
+    distributed = pytest.importorskip("distributed")
+    out = tmp_path / "campaign"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+        argv = ["batch", *recordings, *CHEAP, "--executor", cluster.scheduler_address, "--out", str(out)]
+        assert main(argv) == 0
+        rows = list(csv.DictReader((out / "batch.csv").open()))
+        assert len(rows) == 4 and {r["model"] for r in rows} == {"air", "q1"}
+        assert all(r["best"] == str(r["model"] == "q1") for r in rows)
+        first = (out / "hit_a" / "comparison.json").stat().st_mtime_ns
+        table = json.loads((out / "batch.json").read_text())
+        assert main([*argv[:-2], "--out", str(out)]) == 0          # again: everything is resumed
+        assert (out / "hit_a" / "comparison.json").stat().st_mtime_ns == first
+        assert json.loads((out / "batch.json").read_text()) == table
