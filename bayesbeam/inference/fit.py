@@ -263,6 +263,9 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None):
         if record["passed"] or config.n_intervals or finer_n > N_LADDER[-1]:
             break
         theta = optimum.theta + np.where(np.isfinite(moved), moved, 0.0)
+        # a failed check can mean a long Newton step: keep it only where the finer model is better
+        if not finer.posterior(theta) > finer.posterior(optimum.theta):
+            theta = optimum.theta
         problem, moved_up = finer, True
         optimum = Optimum(theta, problem.posterior(theta), laplace_covariance(problem.posterior, theta), 0)
     if moved_up:

@@ -95,6 +95,10 @@ def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: i
     local = optimize.minimize(lambda x: -counter(x), x0, method="Nelder-Mead",
                               options={"xatol": 1e-7, "fatol": 1e-6, "maxfev": 400 * k, "adaptive": True})
     full = post.with_profiled_noise(local.x)
+    if full is None:
+        raise ValueError(f"the optimiser ended where model {post.likelihood.model.name} cannot be evaluated "
+                         f"({post.values(np.concatenate([local.x, [p.median() for p in post.priors[k:]]]))}); "
+                         f"narrow the priors or give the fit window and band explicitly")
     if any(n.startswith("phi_") for n in post.names):
         full = _polish_all(post, full, counter)
     cov = laplace_covariance(post, full)
