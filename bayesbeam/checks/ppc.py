@@ -32,7 +32,7 @@ from bayesbeam.modal.era import era
 from bayesbeam.response.signals import impact_window
 
 #: replicated recordings per model
-N_REPLICATES = 60
+N_REPLICATES = 100
 #: Ljung-Box lags
 LJUNG_BOX_LAGS = 20
 #: frequency bands of the residual-spectrum statistic
@@ -60,8 +60,8 @@ def posterior_predictive_check(posterior, draws: np.ndarray, rng: np.random.Gene
     model, proj = lik.model, lik.projection
     rec = model.recording
     picks = draws[rng.choice(len(draws), size=n_replicates, replace=len(draws) < n_replicates)]
-    start_index = _decay_start(rec, proj)
-    f_model = _modes_in_band(model, posterior, draws, proj.max_frequency)
+    start_index = decay_start(rec, proj)
+    f_model = modes_in_band(model, posterior, draws, proj.max_frequency)
     observed = rec.signals
     stats = {"residual_spectrum": ([], []), "ljung_box": ([], [])}
     rep_modes, obs_modes, predictions = [], None, []
@@ -145,7 +145,7 @@ def _ljung_box(residual, proj, sigma) -> float:
 
 
 # ---------------------------------------------------------------------------- modes
-def _decay_start(rec, proj) -> int:
+def decay_start(rec, proj) -> int:
     """First sample of the free decay: after the impact force window (or the release)."""
     if rec.excitation.kind == "free_decay":
         return proj.i0
@@ -154,7 +154,7 @@ def _decay_start(rec, proj) -> int:
     return max(proj.i0, int(np.flatnonzero(window)[-1]) + 1)
 
 
-def _modes_in_band(model, posterior, draws, max_frequency) -> np.ndarray:
+def modes_in_band(model, posterior, draws, max_frequency) -> np.ndarray:
     params, _ = posterior.split(np.median(draws, axis=0))
     f = np.asarray(model.natural_frequencies(params))
     return f[f < 0.9 * max_frequency]

@@ -29,7 +29,7 @@ def add_comparison_options(p, default_models) -> None:
     p.add_argument("--noise", choices=["white", "ar1"], help="noise model per channel (default white)")
     p.add_argument("--repeats", type=int, default=3, help="independent SMC evidence runs per model (default 3)")
     p.add_argument("--particles", type=int, help="SMC particles per run (default max(128, 32 x parameters))")
-    p.add_argument("--replicates", type=int, default=60, help="posterior predictive replicates (default 60)")
+    p.add_argument("--replicates", type=int, default=100, help="posterior predictive replicates (default 100)")
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
     p.add_argument("--executor", default="local",
                    help="'local' processes (default), 'serial', or a Dask scheduler address tcp://host:8786")

@@ -1,0 +1,497 @@
+r"""Which catalogue effect explains the mismatch? Signatures ranked before anything is fitted ("Name").
+
+The mismatch map (:mod:`bayesbeam.checks.discrepancy`) gives a feature vector of observed errors
+:math:`d` (per mode: ln frequency, damping ratio, ln amplitude per sensor, decay curvature, phase
+at the excitation) against S replicates of the model. An effect e with parameter :math:`\delta`
+added to the best model at its posterior median :math:`\hat\theta` changes the same features by its
+*signature* :math:`S_e(\delta) = F(\hat\theta, \delta) - F(\hat\theta, 0)`.
+
+Metric. :math:`W = L^{-1}` whitens the errors, :math:`C = LL^T` the replicates' covariance of the
+features within each mode (they share that mode's noise; e.g. a mode's phase and frequency errors
+are correlated), shrunk half-way (:data:`SHRINKAGE`) to its diagonal because S replicates estimate
+it roughly, and zero between modes.
+
+The baseline re-adjusts. Whatever the model's own parameters can mimic is no evidence for the
+effect: with the baseline's Jacobian :math:`N = \partial F/\partial\theta` (central differences in
+sampling coordinates), both sides are projected off the span of :math:`WN` (projector :math:`P`),
+
+.. math:: \chi^2_0 = \|P W d\|^2, \qquad \chi^2_e(\delta) = \|P W (d - S_e(\delta))\|^2,
+          \qquad \Delta\chi^2_e = \chi^2_0 - \min_\delta \chi^2_e(\delta).
+
+This matters: to first order a compliant root lowers every mode by the same fraction,
+:math:`d\ln f_m/d(1/k_\theta) = -2EI/l` for all m (the root moment :math:`EI\varphi_m''(0)` of the
+clamped mode works against the spring, and :math:`\varphi_m''(0)^2 \propto \int\varphi_m''^2`), which a
+lower EI mimics exactly; a sensor at the tip of a cantilever is the same (:math:`\varphi_m(l)^2`
+is the same for every mass-normalised mode). Such effects show only through the second-order
+frequency pattern and the changed mode shapes (amplitudes, damping), which the projection keeps.
+Because the re-adjustment can be large (EI by several % to absorb a root spring), each evaluated
+signature is refined by :data:`GAUSS_NEWTON` steps: :math:`\beta` from the linear projection, the
+features evaluated again at :math:`\hat\theta + \beta` with the effect on.
+
+One-parameter least squares, physically admissible sign and range (the default prior's support,
+both signs only for the axial load):
+
+* linear effects (root_compliance, sensor_mass, axial_load, measurement_delay): the exact model
+  (poles for frequency and damping, simulated amplitudes and phases; the decay stays exponential)
+  on :data:`GRID_POINTS` values log-spaced over the support, then Brent's method in log value
+  between the best value's neighbours; the signature is evaluated at finite size, never
+  linearised at zero, because the first-order part of some is exactly the EI direction;
+* nonlinear effects (quadratic_drag, dry_friction): linearised, :math:`S_e(\delta) \approx \delta J_e`,
+  J from a simulation at a probe value scaled to change the response by :data:`PROBE_CHANGE`
+  (RMS), through the data's own estimators (ERA, envelope, band amplitude, phase);
+  :math:`\hat\delta = \max(0, \langle PWJ, PWd\rangle/\|PWJ\|^2)`, and :math:`\chi^2_e` from a
+  Gauss-Newton-refined simulation at :math:`\hat\delta`.
+
+Scores. The sds come from S replicates, so chi-square statistics are referred to F distributions:
+:math:`\chi^2_0/\nu \sim F(\nu, S-1)` (:math:`\nu` = features minus rank of N) says whether there is
+anything the baseline cannot absorb; :math:`\Delta\chi^2_e \sim F(1, S-1)` (one added parameter)
+gives each effect's p-value. An effect is *supported* when that p-value is below :data:`ALPHA`
+over the number of candidates (Bonferroni) and its value lies inside the prior. Also reported:
+the fraction explained :math:`\Delta\chi^2_e/\chi^2_0`, the 90 % interval (:math:`\chi^2_e \le \min +
+F_{0.9}(1, S-1)`, from the curvature in log value), the effect's own frequency shifts, and the
+predicted feature changes after the baseline re-adjusts, which the reasoning sentence sets against
+the observed ones.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize, stats
+
+from bayesbeam.checks.discrepancy import Mismatch, feature_vector, mode_amplitudes, mode_phases, statistics
+from bayesbeam.inference.priors import default_priors
+from bayesbeam.model import BeamModel
+from bayesbeam.physics import effects as catalogue
+
+#: family-wise level of "supported" over the candidates
+ALPHA = 0.01
+#: grid values over a linear effect's prior support
+GRID_POINTS = 25
+#: a nonlinear effect's probe changes the response by this fraction of its RMS
+PROBE_CHANGE = 0.01
+#: shrinkage of the replicates' within-mode feature covariance towards its diagonal
+SHRINKAGE = 0.5
+#: Gauss-Newton re-adjustments of the baseline per evaluated signature
+GAUSS_NEWTON = 2
+#: step of the baseline's Jacobian in sampling coordinates
+JACOBIAN_STEP = 1e-3
+
+#: the physics of each effect, one sentence a person can check against the signature
+PHYSICS = {
+    "root_compliance": "a rotational spring at the clamp lowers every mode by nearly the same fraction to first "
+                       "order (d ln f/d(1/k_theta) = -2 EI/l), which a lower EI mimics; what gives it away is the "
+                       "extra drop of the low modes at second order and the changed mode shapes (amplitudes)",
+    "sensor_mass": "a point mass at the first sensor lowers mode m by about m_s phi_m(x_s)^2 / 2 (mass-normalised "
+                   "shape): the pattern follows the mode shapes at the sensor (at a cantilever's tip it is the "
+                   "same for every mode, like EI) and the amplitudes there change",
+    "axial_load": "an axial force adds geometric stiffness P int u_x^2: the relative shift falls about as "
+                  "1/(beta_m l)^2 with mode number (mode 1 moves ~6x more than mode 2); tension raises, "
+                  "compression lowers",
+    "measurement_delay": "every response channel lags the motion by tau: a phase -2 pi f tau at every mode, linear "
+                         "in frequency, with no change of frequency, damping or amplitude",
+    "quadratic_drag": "air drag c_q |u_t| u_t dissipates more at large amplitude: the damping falls as the vibration "
+                      "decays (decay rate larger at the start than at the end)",
+    "dry_friction": "Coulomb friction at the tip takes a fixed amplitude per cycle (a straight-line envelope): "
+                    "the damping rises as the vibration decays",
+}
+
+
+@dataclass
+class Candidate:
+    """One effect's explanation of the mismatch (see the module docstring)."""
+
+    effect: str
+    parameter: str
+    unit: str
+    value: float | None             # the parameter's least-squares value (None: no admissible value helps)
+    interval_90: list | None
+    prior: list                     # support of the default prior
+    within_prior: bool
+    delta_chi2: float
+    explained: float                # fraction of the projected mismatch chi2_0
+    p_value: float
+    supported: bool
+    predicted: dict                 # feature -> predicted change after the baseline re-adjusts
+    frequency_shift_pct: list       # the effect's own shift of each mode at the value (before EI re-adjusts)
+    reasoning: str = ""
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in ("effect", "parameter", "unit", "value", "interval_90", "prior",
+                                              "within_prior", "delta_chi2", "explained", "p_value", "supported",
+                                              "frequency_shift_pct", "reasoning")}
+
+
+@dataclass
+class Ranking:
+    """Candidates best first, and whether there was anything to explain."""
+
+    candidates: list
+    chi2: float                     # chi2_0, the projected mismatch
+    dof: int
+    p_value: float                  # of chi2_0 under "the baseline is right"
+    notes: list = field(default_factory=list)
+
+    @property
+    def best(self) -> Candidate | None:
+        return self.candidates[0] if self.candidates and self.candidates[0].supported else None
+
+
+# ---------------------------------------------------------------------------- entry point
+def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None) -> Ranking:
+    """Rank the catalogue ``effects`` (default: all not already in the model) for ``mismatch``."""
+    model = posterior.likelihood.model
+    names = [e for e in (effects or catalogue.REGISTRY) if e not in {x.name for x in model.effects}]
+    theta = np.median(draws, axis=0)
+    params, _ = posterior.split(theta)
+    base = _Evaluator(model, mismatch.setting)
+    base_features = base(params)
+    space = _Space.build(mismatch, base, posterior, theta, base_features)
+    dof = space.dof
+    p0 = space.p_value(space.chi2_0, dof)
+    level = ALPHA / max(len(names), 1)
+    found = [_candidate(name, posterior, theta, base_features, space, mismatch, level) for name in names]
+    found.sort(key=lambda c: (not c.supported, -c.delta_chi2))
+    if len(found) > 1 and found[0].predicted:
+        found[0].reasoning += _contrast(found[0], found[1], mismatch)
+    return Ranking(found, space.chi2_0, dof, p0, _ranking_notes(found, space.chi2_0, dof, p0))
+
+
+# ---------------------------------------------------------------------------- features of a model
+class _Evaluator:
+    """The feature vector of a model at given parameters: exact for linear models, through the
+    data's estimators (noise-free simulation) when an effect is nonlinear."""
+
+    def __init__(self, model, setting):
+        self.model, self.setting = model, setting
+        self.exact = all(e.linear for e in model.effects)
+
+    def __call__(self, params) -> np.ndarray:
+        s = self.setting
+        y = self.simulate(params)
+        if not self.exact:
+            return feature_vector(statistics(y, s, noisy=False))
+        m = len(s.f_model)
+        poles = self.model.poles(params)[:m]
+        return feature_vector({"frequency": np.log(np.abs(poles) / (2 * np.pi)), "damping": -poles.real / np.abs(poles),
+                               "amplitude": mode_amplitudes(y, s.projection, s.bands, 0 * s.sigma),
+                               "curvature": np.zeros(m), "phase": mode_phases(y, s)})
+
+    def simulate(self, params) -> np.ndarray:
+        """The noise-free signals; a free decay's unknown initial state by least squares (weights 1/sigma)."""
+        if self.model.recording.excitation.kind != "free_decay":
+            return self.model.simulate(params)
+        return self.model.simulate(params, self.model.fit_initial(params, weights=1 / self.setting.sigma))
+
+
+@dataclass
+class _Space:
+    """The whitened feature space with the baseline's parameters projected out (module docstring)."""
+
+    used: np.ndarray                # features that enter
+    whiten: np.ndarray              # W (used, used): W C W^T = I
+    basis: np.ndarray               # orthonormal basis of W N
+    jacobian: np.ndarray            # N (used, k)
+    d: np.ndarray                   # W d (used,)
+    rank: int
+    replicates: int                 # S: the sds' degrees of freedom are S - 1
+    setting: object                 # the map's estimator setting
+
+    @classmethod
+    def build(cls, mismatch, base, posterior, theta, base_features):
+        f = mismatch.features
+        jac = _jacobian(base, posterior, theta, base_features)
+        used = np.isfinite(f.observed) & np.isfinite(f.sd) & (f.sd > 0) & np.all(np.isfinite(jac), axis=1)
+        whiten = _whitening(f, used)
+        u, sv, _ = np.linalg.svd(whiten @ jac[used], full_matrices=False)
+        keep = sv > 1e-8 * sv.max() if sv.size else np.zeros(0, bool)
+        return cls(used, whiten, u[:, keep], jac[used], whiten @ f.observed[used], int(keep.sum()),
+                   len(f.replicated), mismatch.setting)
+
+    @property
+    def dof(self) -> int:
+        return int(self.used.sum()) - self.rank
+
+    def p_value(self, chi2: float, dof: int) -> float:
+        """Pr(chi2 or more) when the error's sds come from S replicates: chi2/dof ~ F(dof, S - 1)."""
+        return float(stats.f.sf(chi2 / max(dof, 1), max(dof, 1), max(self.replicates - 1, 1)))
+
+    @property
+    def interval_level(self) -> float:
+        """chi2 above its minimum at the ends of the 90 % interval: F(1, S - 1) quantile."""
+        return float(stats.f.ppf(0.9, 1, max(self.replicates - 1, 1)))
+
+    def project(self, x: np.ndarray) -> np.ndarray:
+        return x - self.basis @ (self.basis.T @ x)
+
+    @property
+    def chi2_0(self) -> float:
+        r = self.project(self.d)
+        return float(r @ r)
+
+    def weighted(self, signature: np.ndarray) -> np.ndarray:
+        return self.whiten @ np.nan_to_num(signature[self.used])
+
+    def chi2(self, signature: np.ndarray) -> float:
+        r = self.project(self.d - self.weighted(signature))
+        return float(r @ r)
+
+    def beta(self, signature: np.ndarray) -> np.ndarray:
+        """The baseline parameters' linear re-adjustment (sampling coordinates) given the signature."""
+        return np.linalg.lstsq(self.whiten @ self.jacobian, self.d - self.weighted(signature), rcond=None)[0]
+
+    def adjusted(self, signature: np.ndarray) -> np.ndarray:
+        """Signature plus the baseline's best linear re-adjustment to the observed errors (used features)."""
+        return np.nan_to_num(signature[self.used]) + self.jacobian @ self.beta(signature)
+
+
+def _whitening(f, used) -> np.ndarray:
+    """W = L^-1, C = L L^T = diag(s) R diag(s): R the replicates' correlation within each mode (the
+    features of one mode share its noise), zero between modes, shrunk half-way to the identity (S
+    replicates estimate it roughly); s the errors' sds."""
+    mode = np.array([_label(n)[2] for n, u in zip(f.names, used) if u])
+    r = np.nan_to_num(f.replicated[:, used])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = np.nan_to_num(np.atleast_2d(np.corrcoef(r, rowvar=False))) if len(r) > 1 else np.eye(mode.size)
+    corr = (1 - SHRINKAGE) * corr * (mode[:, None] == mode[None, :]) + SHRINKAGE * np.eye(mode.size)
+    np.fill_diagonal(corr, 1.0)
+    sd = f.sd[used]
+    return np.linalg.inv(np.linalg.cholesky(corr * np.outer(sd, sd)))
+
+
+def _jacobian(base: _Evaluator, posterior, theta, f0) -> np.ndarray:
+    """dF/d(theta_k) for the model parameters (sampling coordinates): (n_features, k)."""
+    k = len(posterior.model_names)
+    cols = []
+    for i in range(k):
+        step = np.zeros_like(theta)
+        step[i] = JACOBIAN_STEP
+        plus, minus = (base(posterior.split(theta + sign * step)[0]) for sign in (1, -1))
+        cols.append((plus - minus) / (2 * JACOBIAN_STEP))
+    return np.array(cols).T if cols else np.zeros((f0.size, 0))
+
+
+# ---------------------------------------------------------------------------- one candidate
+def _candidate(name, posterior, theta, base_features, space, mismatch, level) -> Candidate:
+    model = posterior.likelihood.model
+    effect = catalogue.REGISTRY[name]
+    parameter = effect.parameters[0]
+    aug = _augmented(model, name)
+    prior = default_priors(model.recording.beam, (parameter,), {})[parameter]
+    support = [float(np.exp(v)) if prior.log_scale else float(v) for v in prior.bounds()]
+    sig = _Signature(aug, parameter, posterior, theta, base_features, space)
+    value, interval, chi2, best = (_grid_fit if effect.linear else _linearised_fit)(sig, space, support)
+    delta = max(space.chi2_0 - chi2, 0.0)
+    p = space.p_value(delta, 1)
+    inside = value is not None and support[0] <= value <= support[1]
+    params = posterior.split(theta)[0]
+    cand = Candidate(name, parameter, effect.units[parameter], value, interval, support, bool(inside), delta,
+                     delta / space.chi2_0 if space.chi2_0 > 0 else 0.0, p, bool(p < level and inside),
+                     _predicted(space, best, mismatch), _frequency_shift(aug, model, params, parameter, value))
+    cand.reasoning = _reasoning(cand, mismatch)
+    return cand
+
+
+class _Signature:
+    """S_e(delta) = F(theta, delta) - F(theta, 0), and its Gauss-Newton refinement: the baseline's
+    parameters moved by their linear re-adjustment beta and the features evaluated again there,
+    so that a large re-adjustment (EI absorbing a root spring's uniform shift) is not linearised."""
+
+    def __init__(self, aug, parameter, posterior, theta, base_features, space):
+        self.evaluate = _Evaluator(aug, space.setting)
+        self.parameter, self.posterior, self.theta = parameter, posterior, theta
+        self.base, self.space = base_features, space
+
+    def __call__(self, value, beta=None):
+        theta = self.theta.copy()
+        if beta is not None:
+            theta[: len(beta)] += beta
+        try:
+            return self.evaluate({**self.posterior.split(theta)[0], self.parameter: value}) - self.base
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+            return None
+
+    def refit(self, value):
+        """The signature after GAUSS_NEWTON re-adjustments of the baseline (the last that evaluates)."""
+        out = self(value)
+        beta = np.zeros(self.space.jacobian.shape[1])
+        for _ in range(GAUSS_NEWTON if out is not None else 0):
+            beta = beta + self.space.beta(out)
+            moved = self(value, beta)
+            if moved is None:
+                break
+            out = moved
+        return out
+
+
+def _augmented(model, name) -> BeamModel:
+    """The same model (mechanisms, grid, force conditioning) with effect ``name`` added."""
+    rec = model.recording
+    windowed = model.force is not None and not np.array_equal(model.force, rec.force)
+    return BeamModel.from_recording(rec, [m.name for m in model.mechanisms], model.n_intervals, windowed,
+                                    [e.name for e in model.effects] + [name])
+
+
+def _grid(support) -> np.ndarray:
+    """Log-spaced grid over the support; both signs when it straddles zero (axial load)."""
+    lo, hi = support
+    if lo > 0:
+        return np.geomspace(lo, hi, GRID_POINTS)
+    if lo == 0:
+        return np.geomspace(1e-4 * hi, hi, GRID_POINTS)
+    half = GRID_POINTS // 2
+    reach = max(-lo, hi)
+    neg = -np.geomspace(1e-5 * reach, -lo, half)[::-1]
+    return np.concatenate([neg, np.geomspace(1e-5 * reach, hi, GRID_POINTS - half)])
+
+
+def _grid_fit(sig: _Signature, space, support):
+    """Least squares over the grid, then Brent's method on the refined chi2 in log |value| between
+    the grid minimum's neighbours of the same sign; 90 % interval from the curvature there."""
+    grid = _grid(support)
+    chi2 = np.array([space.chi2(s) if (s := sig(v)) is not None else np.inf for v in grid])
+    i = int(np.argmin(chi2))
+    sign = np.sign(grid[i])
+    near = [j for j in (i - 1, i, i + 1) if 0 <= j < len(grid) and np.sign(grid[j]) == sign]
+    lo, hi = np.log(np.abs(grid[near])).min(), np.log(np.abs(grid[near])).max()
+
+    def refined(x):
+        s = sig.refit(sign * np.exp(x))
+        return space.chi2(s) if s is not None else np.inf
+
+    res = optimize.minimize_scalar(refined, bounds=(lo, hi), method="bounded", options={"xatol": 0.01})
+    x, c_min = float(res.x), float(res.fun)
+    value = float(sign * np.exp(x))
+    return value, _interval(refined, x, c_min, sign, support, space.interval_level), c_min, sig.refit(value)
+
+
+def _interval(refined, x, c_min, sign, support, level) -> list:
+    """chi2 <= min + level from the parabola through x +- 0.1 (log value), within the support."""
+    h = 0.1
+    curvature = (refined(x + h) + refined(x - h) - 2 * c_min) / (2 * h * h)
+    half = np.sqrt(level / curvature) if curvature > 0 else np.inf
+    ends = sorted(float(sign * np.exp(x + d)) for d in (-half, half))
+    return [max(ends[0], support[0]), min(ends[1], support[1])]
+
+
+def _linearised_fit(sig: _Signature, space, support):
+    """delta J fitted by least squares with delta >= 0, J from a probe scaled to PROBE_CHANGE."""
+    probe = _probe(sig.evaluate, sig.posterior.split(sig.theta)[0], sig.parameter, support)
+    s_probe = sig(probe)
+    if s_probe is None:
+        return None, [0.0, 0.0], space.chi2_0, None
+    j = space.project(space.weighted(s_probe / probe))
+    norm2 = float(j @ j)
+    value = max(0.0, float(j @ space.project(space.d)) / norm2) if norm2 > 0 else 0.0
+    half = np.sqrt(space.interval_level / norm2) if norm2 > 0 else np.inf
+    interval = [float(max(0.0, value - half)), float(value + half)]
+    if value == 0.0:
+        return 0.0, interval, space.chi2_0, np.zeros_like(s_probe)
+    best = sig.refit(value)
+    best = s_probe / probe * value if best is None else best
+    return value, interval, space.chi2(best), best
+
+
+def _probe(evaluate: _Evaluator, params, parameter, support) -> float:
+    """A value that changes the noise-free response by PROBE_CHANGE of its RMS (linear regime)."""
+    y0 = evaluate.simulate({**params, parameter: 0.0})
+    value = float(np.sqrt(support[0] * support[1]))
+    for _ in range(3):
+        change = np.sqrt(np.mean((evaluate.simulate({**params, parameter: value}) - y0) ** 2) / np.mean(y0**2))
+        if not change > 0:
+            break
+        value *= PROBE_CHANGE / change
+        if abs(np.log(change / PROBE_CHANGE)) < 0.5:
+            break
+    return value
+
+
+def _frequency_shift(aug, model, params, parameter, value) -> list:
+    """The effect's own relative shift of each in-band mode (%) at ``value``, EI unchanged."""
+    if value is None:
+        return []
+    f0 = model.natural_frequencies(params)
+    try:
+        f1 = aug.natural_frequencies({**params, parameter: value})
+    except (ValueError, np.linalg.LinAlgError):
+        return []
+    m = min(len(f0), len(f1))
+    return [float(v) for v in 100 * (f1[:m] / f0[:m] - 1)]
+
+
+# ---------------------------------------------------------------------------- words
+def _predicted(space, signature, mismatch) -> dict:
+    names = [n for n, u in zip(mismatch.features.names, space.used) if u]
+    if signature is None:
+        return {}
+    return dict(zip(names, space.adjusted(signature).tolist()))
+
+
+def _label(name: str) -> tuple[str, str, int]:
+    """(words, kind, mode) of a feature name: 'ln_A2_tip' -> ('mode 2 amplitude at tip', 'ln_A', 2)."""
+    for kind, words in (("ln_f", "frequency"), ("zeta", "damping ratio"), ("ln_A", "amplitude"),
+                        ("curvature", "decay curvature"), ("phase", "phase at the excitation")):
+        if name.startswith(kind):
+            mode, _, sensor = name[len(kind):].partition("_")
+            return f"mode {mode} {words}" + (f" at {sensor}" if sensor else ""), kind, int(mode)
+    raise ValueError(f"unknown feature {name!r}")
+
+
+def _format(kind: str, value: float, zeta: float | None, sign: str = "+") -> str:
+    """A feature's value in its reading unit: % for frequency, amplitude and damping, else 1/s or rad."""
+    if kind in ("ln_f", "ln_A"):
+        return f"{100 * np.expm1(value):{sign}.2g}%"
+    if kind == "zeta":
+        return f"{100 * value / zeta:{sign}.2g}%" if zeta else f"{value:{sign}.2g}"
+    return f"{value:{sign}.2g} {'1/s' if kind == 'curvature' else 'rad'}"
+
+
+def _reasoning(c: Candidate, mismatch) -> str:
+    """The candidate's case in words: physics, what it predicts against what is seen, the verdict."""
+    f = mismatch.features
+    index = {n: i for i, n in enumerate(f.names)}
+    pulls = sorted(c.predicted, key=lambda n: -abs(c.predicted[n]) / f.sd[index[n]])[:3]
+    seen = []
+    for n in pulls:
+        words, kind, mode = _label(n)
+        zeta = mismatch.modes[mode - 1]["replicated_damping_ratio"]
+        seen.append(f"{words} {_format(kind, f.observed[index[n]], zeta)} +- {_format(kind, f.sd[index[n]], zeta, '')}"
+                    f" observed, {_format(kind, c.predicted[n], zeta)} predicted")
+    shift = ", ".join(f"{v:+.2g}" for v in c.frequency_shift_pct[: len(mismatch.modes)])
+    own = f"; on its own (EI fixed) it shifts modes 1-{len(mismatch.modes)} by {shift}%" if shift and \
+        any(abs(v) > 1e-3 for v in c.frequency_shift_pct) else ""
+    value = "no admissible value helps" if not c.value else \
+        (f"needs {c.parameter} = {c.value:.3g} {c.unit} (90%: {c.interval_90[0]:.3g} to {c.interval_90[1]:.3g}), "
+         f"{'inside' if c.within_prior else 'outside'} the prior [{c.prior[0]:.3g}, {c.prior[1]:.3g}]")
+    return (f"{c.effect}: {PHYSICS[c.effect]}{own}. Where its signature is strongest (after the model's own "
+            f"parameters re-adjust): {'; '.join(seen) or 'nowhere'}. It explains {c.explained:.0%} of the mismatch "
+            f"(delta chi2 = {c.delta_chi2:.3g}, p = {c.p_value:.2g}); {value}: "
+            f"{'supported' if c.supported else 'not supported'}.")
+
+
+def _contrast(best: Candidate, other: Candidate, mismatch) -> str:
+    """The runner-up at the best candidate's strongest feature: the check that tells them apart."""
+    f = mismatch.features
+    index = {n: i for i, n in enumerate(f.names)}
+    name = max(best.predicted, key=lambda n: abs(best.predicted[n]) / f.sd[index[n]])
+    words, kind, mode = _label(name)
+    zeta = mismatch.modes[mode - 1]["replicated_damping_ratio"]
+    there = f" (it predicts {_format(kind, other.predicted[name], zeta)} for the {words})" \
+        if name in other.predicted else ""
+    return (f" The next candidate, {other.effect}, explains {other.explained:.0%} "
+            f"(delta chi2 = {other.delta_chi2:.3g}){there}.")
+
+
+def _ranking_notes(found, chi2_0, dof, p0) -> list[str]:
+    notes = [f"projected mismatch chi2 = {chi2_0:.3g} on {dof} degrees of freedom (p = {p0:.2g})"]
+    if any(c.supported for c in found):
+        best = found[0]
+        notes.append(f"best candidate: {best.effect} ({best.explained:.0%} of the mismatch)")
+    elif p0 < ALPHA:
+        notes.append("no catalogue effect explains the mismatch: unexplained")
+    else:
+        notes.append("the per-mode features show nothing the baseline's own parameters cannot absorb, and no "
+                     "effect's signature stands out: no effect is needed")
+    return notes
+
+

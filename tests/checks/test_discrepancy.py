@@ -1,0 +1,136 @@
+"""The mismatch map locates what a fitted model leaves out, and flags nothing when nothing is missing.
+
+Recordings: the cheap cases of tests/inference/cases.py (paper beam, force pulse at 0.75 m, tip
+accelerometer, 1 s at 512 Hz, N = 6, 2 % white noise), simulated with a catalogue effect the
+fitted model (q1, no effect) lacks: a root spring k_theta = 4428 N m/rad (= 100 EI/l: mode 1
+1.9 % low, modes 2-4 1.8-1.9 % low), a 0.5 ms measurement delay, and, on a more damped beam
+(cdI = 1e-3 N m^2 s, so that the beam decays within the record), mains pickup: a 50 Hz sine of
+amplitude equal to the noise sd (2 % of the signal RMS: invisible in the time history). Draws come
+from the Laplace approximation at the optimum, as in test_ppc.
+
+False alarms: the map's family-wise level is ALPHA = 0.01 (split over cells, per-mode tests and
+the delay), so the null recording passes with probability about 0.99 (on 30 further null
+recordings nothing was flagged); the seeds are fixed, so the outcome is reproducible. The effects
+stand far above the thresholds, so a flag is not a borderline outcome of the seed: the root
+spring's cells have p <= 1e-8 against Holm's ~1.7e-5, the delay is 58 sd from zero, the mains
+line's cell power is 60 against ~12.
+"""
+import json
+from functools import cache
+
+import numpy as np
+
+from bayesbeam.checks.discrepancy import ALPHA, Setting, decay_rates, holm, locate
+from bayesbeam.inference.fit import FitConfig, prepare
+from bayesbeam.inference.likelihood import BandProjection
+from bayesbeam.inference.sampler import find_optimum
+from bayesbeam.model import BeamModel
+from tests.inference import cases
+
+#: the concealed effects: (effect, parameter value), None for no effect
+EFFECTS = {"null": None, "root_compliance": ("root_compliance", 4428.0), "measurement_delay": ("measurement_delay", 5e-4),
+           "sensor_mass": ("sensor_mass", 0.01), "axial_load": ("axial_load", 5.0),
+           "dry_friction": ("dry_friction", 0.015), "mains": None}
+#: replicates per map: enough for the replicates' sd to within ~16 % (1/sqrt(2 (S-1)))
+REPLICATES = 20
+
+
+def recording(case: str, seed: int = 3):
+    """The case's recording: q1 truth (plus the effect) at N = 6 and 2 % noise (plus mains)."""
+    rec = cases.base_recording()
+    truth = dict(cases.TRUTH["q1"], **({"cdI": 1e-3} if case == "mains" else {}))
+    effect = EFFECTS[case]
+    model = BeamModel.from_recording(rec, "q1", 6, effects=[effect[0]] if effect else None)
+    clean = model.simulate(dict(truth, **({model.parameter_names[-1]: effect[1]} if effect else {})))
+    sd = 0.02 * float(np.sqrt(np.mean(clean**2)))
+    noisy = clean + sd * np.random.default_rng(seed).standard_normal(clean.shape)
+    if case == "mains":
+        noisy += sd * np.sin(2 * np.pi * 50.0 * rec.time + 0.3)[:, None]
+    return rec.with_signals(noisy)
+
+
+@cache
+def fitted(case: str):
+    """(posterior, draws, mismatch) of q1 fitted to the case (shared with test_signatures).
+
+    The optimum's global stages are shortened (81 EI scan points, 15 differential-evolution
+    iterations; test_ppc uses the defaults 321 and 40): on these cases it lands within 3e-4
+    posterior sd of the default optimum, at half the cost.
+    """
+    post = prepare(recording(case), "q1", FitConfig(n_intervals=6), 6).posterior
+    optimum = find_optimum(post, np.random.default_rng(1), scan_points=81, de_iterations=15)
+    draws = np.random.default_rng(1).multivariate_normal(optimum.theta, optimum.covariance, 200)
+    return post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES)
+
+
+def test_null_recording_flags_nothing():
+    """Nothing flagged at family-wise level 0.01; the RMS standardized residual is 1 within 0.15
+    (its sd is ~0.04 over the ~780 coordinates: 4 sd)."""
+    mis = fitted("null")[2]
+    assert mis.regions == []
+    assert not mis.spectrogram.significant.any()
+    assert all(row["flags"] == [] for row in mis.modes)
+    assert not mis.phase["significant"]
+    assert abs(mis.rms_standardized_residual - 1) < 0.15
+    assert abs(mis.noise["accel_tip"]["inflation"] - 1) < 0.15
+    summary = json.loads(json.dumps(mis.to_dict()))
+    assert summary["alpha"] == ALPHA and summary["mismatch"] == []
+
+
+def test_root_compliance_is_located_at_the_low_modes():
+    """A compliant root changes the low modes most once EI has absorbed its near-uniform shift:
+    the regions cover modes 1 and 2 at the tip sensor, and the fitted noise sd is inflated."""
+    mis = fitted("root_compliance")[2]
+    modes = {r["mode"] for r in mis.regions}
+    assert {1, 2} <= modes
+    assert all(r["sensor"] == "accel_tip" and r["beam_physics"] for r in mis.regions)
+    assert mis.rms_standardized_residual > 1.2
+    by_mode = {row["mode"]: row for row in mis.modes}
+    assert "amplitude" in by_mode[2]["flags"] and by_mode[2]["amplitude_error_pct"] < 0
+
+
+def test_delay_is_estimated_within_its_uncertainty():
+    """The per-mode phases at the excitation give the delay: 0.5 ms inside +-3 sd of the estimate
+    (99.7 % if the sd is right), with an sd under 0.05 ms (a tenth of the delay)."""
+    mis = fitted("measurement_delay")[2]
+    phase = mis.phase
+    assert phase["significant"]
+    assert abs(phase["delay_s"] - 5e-4) < 3 * phase["delay_sd_s"]
+    assert phase["delay_sd_s"] < 5e-5
+    assert any(r["sensor"] == "all" and "lags the model" in r["note"] for r in mis.regions)
+
+
+def test_mains_pickup_is_not_beam_physics():
+    """A 50 Hz line at the noise sd stands above the noise, does not decay while the beam would
+    (42 % kept over the window), and is labelled mains pickup, not beam physics."""
+    mis = fitted("mains")[2]
+    lines = [r for r in mis.regions if r["mode"] is None]
+    assert len(lines) == 1 and len(mis.regions) == 1
+    line = lines[0]
+    assert line["band_hz"][0] <= 50.0 <= line["band_hz"][1]
+    assert not line["beam_physics"] and "mains" in line["note"]
+
+
+def test_decay_curvature_sign():
+    """Envelope decay rates at start and end: exponential decay equal within 10 % of the rate (the
+    estimator's own bias near the filter's end, about 6 % here, is why the map compares with
+    replicates), a straight-line envelope (friction) rising and a 1/(1 + a t) envelope (drag)
+    falling by more than 1.5 x."""
+    fs, n = 512.0, 1024
+    t = np.arange(n) / fs
+    proj = BandProjection(fs, 0, n, 512, 190.0)
+    setting = Setting(proj, 1 / fs, np.array([20.0]), [(14.0, 26.0)], np.array([0]), np.array([1e-6]), 0, 0.0,
+                      np.zeros((n, 1)))
+    carrier = np.sin(2 * np.pi * 20.0 * t)
+    rates = {name: decay_rates((env * carrier)[:, None], setting)[0]
+             for name, env in (("exponential", np.exp(-1.0 * t)), ("friction", 1 - 0.45 * t),
+                               ("drag", 1 / (1 + 2.0 * t)))}
+    assert abs(rates["exponential"][0] - rates["exponential"][1]) < 0.1 * rates["exponential"][0]
+    assert rates["friction"][1] > 1.5 * rates["friction"][0]
+    assert rates["drag"][0] > 1.5 * rates["drag"][1]
+
+
+def test_holm_step_down():
+    """Holm at 0.05 over four p-values: thresholds 0.0125, 0.0167, 0.025, 0.05 in order."""
+    p = np.array([0.01, 0.04, 0.016, 0.3])
+    np.testing.assert_array_equal(holm(p, 0.05), [True, False, True, False])
