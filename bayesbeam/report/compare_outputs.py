@@ -1,4 +1,5 @@
-"""Write a comparison's outputs: comparison.json, posteriors/<model>.nc and report.html.
+"""Write a comparison's outputs: comparison.json, posteriors/<model>.nc, report.html and
+damping_per_mode.png (the report's per-mode figure on its own, for papers and slides).
 
 Every file is written under a temporary name and renamed into place (see fit_outputs).
 """
@@ -9,8 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bayesbeam.report.comparison import write_report
+from bayesbeam.report.comparison import mode_plot, model_colors, write_report
 from bayesbeam.report.fit_outputs import write_json, write_netcdf
+from bayesbeam.report.plots import save
 
 
 def inference_data(result):
@@ -38,6 +40,7 @@ def write_comparison(results: dict, summary: dict, out_dir) -> list[Path]:
     out = Path(out_dir)
     (out / "posteriors").mkdir(parents=True, exist_ok=True)
     written = [write_netcdf(inference_data(r), out / "posteriors" / f"{_file_name(m)}.nc") for m, r in results.items()]
+    written.append(save(mode_plot(summary, model_colors(summary)), out / "damping_per_mode.png"))
     written.append(write_report(results, summary, out / "report.html"))
     written.append(write_json(summary, out / "comparison.json"))
     return written

@@ -85,8 +85,7 @@ def write_report(results: dict, summary: dict, path) -> Path:
 
 def render(results: dict, summary: dict) -> str:
     """The report's HTML."""
-    ranking = summary["ranking"]
-    colors = {m: COLORS[i % len(COLORS)] for i, m in enumerate(ranking)}
+    colors = model_colors(summary)
     body = [_header(summary),
             _verdict_section(summary),
             _modes_section(summary, colors),
@@ -99,6 +98,11 @@ def render(results: dict, summary: dict) -> str:
             "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
             f"<title>bayesbeam model comparison</title><style>{STYLE}</style>"
             f"<script>{SCRIPT}</script></head>\n<body>\n" + "\n".join(body) + "\n</body></html>\n")
+
+
+def model_colors(summary) -> dict:
+    """One colour per model, in ranking order (the same in every figure)."""
+    return {m: COLORS[i % len(COLORS)] for i, m in enumerate(summary["ranking"])}
 
 
 # ---------------------------------------------------------------------------- sections
@@ -192,7 +196,7 @@ def _modes_section(summary, colors) -> str:
               "90% interval of the same quantity on its replicated recordings. Cells outside the interval "
               "are highlighted.</p>"
             + "<h3>Damping ratio &zeta; [%]</h3>" + z_table + "<h3>Frequency f [Hz]</h3>" + f_table
-            + _figure(_mode_plot(summary, colors), "damping ratio against mode frequency", caption))
+            + _figure(mode_plot(summary, colors), "damping ratio against mode frequency", caption))
 
 
 def _mode_table(summary, measured_key, interval_key, scale, fmt) -> str:
@@ -220,7 +224,7 @@ def _interval_cell(row, measured_key, interval_key, scale, fmt) -> str:
     return _flag(text, _outside(row[measured_key], row[interval_key]))
 
 
-def _mode_plot(summary, colors):
+def mode_plot(summary, colors):
     """zeta against mode frequency (log-log): measured points and each model's 90% interval."""
     ranking = summary["ranking"]
     fig, ax = plt.subplots(figsize=(WIDTH * 0.75, 3.8))

@@ -12,9 +12,9 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import corner  # noqa: E402
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import corner
+import matplotlib.pyplot as plt
+import numpy as np
 
 #: 2-D contour levels of the corner plots: the probability mass inside 1 and 2 "sigma"
 #: for a 2-D Gaussian, 1 - exp(-k^2/2) for k = 1, 2

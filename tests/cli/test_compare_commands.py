@@ -28,7 +28,7 @@ def test_compare_writes_json_report_and_posteriors(recordings, tmp_path, capsys)
     assert main(["compare", recordings[0], *CHEAP, "--executor", "serial", "--out", str(out)]) == 0
     summary = json.loads((out / "comparison.json").read_text())
     assert summary["best"] == "q1" and summary["ranking"] == ["q1", "air"]
-    assert (out / "report.html").stat().st_size > 10000
+    assert (out / "report.html").stat().st_size > 10000 and (out / "damping_per_mode.png").exists()
     idata = az.from_netcdf(out / "posteriors" / "q1.nc")
     assert idata.posterior.sizes["chain"] == 2 and "cdI" in idata.posterior
     printed = capsys.readouterr().out
