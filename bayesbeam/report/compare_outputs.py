@@ -26,7 +26,7 @@ def inference_data(result):
     rec = result.problem.model.recording
     return az.from_dict(
         posterior={n: values[..., i] for i, n in enumerate(names)},
-        sample_stats={"log_likelihood": np.stack([r.log_likelihood for r in runs]),
+        sample_stats={"log_likelihood_total": np.stack([r.log_likelihood for r in runs]),
                       "log_prior": np.stack([r.log_prior for r in runs])},
         observed_data={"signals": np.asarray(rec.signals)},
         coords={"time": rec.time, "sensor": [s.name for s in rec.sensors]},
