@@ -10,12 +10,12 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
 from pathlib import Path
 
 from bayesbeam.cli.common import UsageError
 from bayesbeam.cli.compare import add_comparison_options, comparison_config, model_list
 from bayesbeam.io import load_recording
+from bayesbeam.io.atomic import write_text
 
 HELP = "compare models on many recordings (local processes or a Dask cluster), one table out"
 
@@ -91,9 +91,7 @@ def _write_csv(rows, path: Path) -> None:
     writer = csv.DictWriter(buffer, fieldnames=columns)
     writer.writeheader()
     writer.writerows(rows)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(buffer.getvalue())
-    os.replace(tmp, path)
+    write_text(path, buffer.getvalue())
 
 
 def _say(log, text):

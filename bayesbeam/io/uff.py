@@ -48,13 +48,13 @@ from __future__ import annotations
 
 import math
 import os
-import uuid
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from .atomic import atomic_write
 from .errors import RecordingError
 from .recording import (
     _KNOWN_TABLES,
@@ -167,17 +167,10 @@ def node_numbers(locations) -> dict[float, int]:
 
 
 def _atomic_write(path: Path, datasets: list[dict]) -> Path:
-    """Write ``datasets`` with pyuff to a temporary sibling of ``path``, then rename it into place."""
+    """Write ``datasets`` with pyuff to ``path`` atomically."""
     import pyuff
 
-    path = Path(os.path.abspath(path))
-    temporary = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp")
-    try:
-        pyuff.UFF(str(temporary)).write_sets(datasets, mode="overwrite")
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
-    return path
+    return atomic_write(path, lambda p: pyuff.UFF(str(p)).write_sets(datasets, mode="overwrite"))
 
 
 def _header_sets(nodes: dict[float, int]) -> list[dict]:

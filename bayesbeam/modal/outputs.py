@@ -10,12 +10,11 @@ from __future__ import annotations
 import csv
 import io
 import json
-import os
-import uuid
 from pathlib import Path
 
 import numpy as np
 
+from bayesbeam.io.atomic import atomic_write, write_text
 from bayesbeam.modal.ema import (
     EmaResult,
     ModalTable,
@@ -25,7 +24,6 @@ from bayesbeam.modal.ema import (
 
 __all__ = [
     "EMA_UNITS",
-    "atomic_write",
     "ema_document",
     "era_document",
     "plot_successive",
@@ -39,22 +37,6 @@ _TABLE4_COLUMNS = (
     "modes", "n_modes", "viscous_only_gamma", "viscous_only_rms_zeta", "strain_only_c_d",
     "strain_only_rms_zeta", "both_gamma", "both_c_d", "both_rms_zeta",
 )
-
-
-def atomic_write(path: Path, write) -> Path:
-    """Call ``write(temporary_path)``, then rename the temporary file to ``path``."""
-    path = Path(os.path.abspath(path))
-    temporary = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp")
-    try:
-        write(temporary)
-        os.replace(temporary, path)
-    finally:
-        temporary.unlink(missing_ok=True)
-    return path
-
-
-def _write_text(path: Path, text: str) -> Path:
-    return atomic_write(path, lambda p: p.write_text(text, encoding="utf-8"))
 
 
 def _save_figure(fig, path: Path) -> Path:
@@ -149,8 +131,8 @@ def write_ema_outputs(out_dir, result: EmaResult, table: ModalTable, document: d
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     return [
-        _write_text(out / "ema.json", json.dumps(document, indent=2) + "\n"),
-        _write_text(out / "table4.csv", _table4_csv(result)),
+        write_text(out / "ema.json", json.dumps(document, indent=2) + "\n"),
+        write_text(out / "table4.csv", _table4_csv(result)),
         _save_figure(plot_successive(result, table, second_moment=second_moment, rho_a=rho_a), out / "ema.png"),
     ]
 
@@ -204,6 +186,6 @@ def write_era_outputs(out_dir, modes, rec) -> list[Path]:
     ax.set_title(f"{Path(str(rec.source)).name}: ERA stabilization (lines: modes kept at order {modes.order})", fontsize=9)
     return [
         atomic_write(out / "modal.csv", lambda p: write_modal_table(p, modes.table())),
-        _write_text(out / "era.json", json.dumps(era_document(modes, rec), indent=2) + "\n"),
+        write_text(out / "era.json", json.dumps(era_document(modes, rec), indent=2) + "\n"),
         _save_figure(fig, out / "stabilization.png"),
     ]

@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import base64
 import html
-import os
 from pathlib import Path
 
 import numpy as np
 
 from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, SPECTRUM_BANDS
 from bayesbeam.compare import strength
+from bayesbeam.io.atomic import write_text
 
 # plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
 from bayesbeam.report.plots import (
@@ -76,11 +76,7 @@ window.addEventListener("load", function () {
 
 def write_report(results: dict, summary: dict, path) -> Path:
     """Write the report of a comparison (``compare()``'s results and summary) to ``path``, atomically."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(render(results, summary), encoding="utf-8")
-    os.replace(tmp, path)
-    return path
+    return write_text(path, render(results, summary))
 
 
 def render(results: dict, summary: dict) -> str:

@@ -7,19 +7,15 @@ file and is written by the sampler itself, so that an interrupted run can resume
 from __future__ import annotations
 
 import json
-import os
 import warnings
 from pathlib import Path
 
+from bayesbeam.io.atomic import atomic_write, write_text
 from bayesbeam.report.plots import corner_plot, fit_plot, save, trace_plot
 
 
 def write_json(data, path) -> Path:
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps(data, indent=2, default=_jsonable) + "\n")
-    os.replace(tmp, path)
-    return path
+    return write_text(path, json.dumps(data, indent=2, default=_jsonable) + "\n")
 
 
 def _jsonable(value):
@@ -29,13 +25,9 @@ def _jsonable(value):
 
 
 def write_netcdf(idata, path) -> Path:
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        idata.to_netcdf(str(tmp), engine="h5netcdf")
-    os.replace(tmp, path)
-    return path
+        return atomic_write(path, lambda p: idata.to_netcdf(str(p), engine="h5netcdf"))
 
 
 def write_fit(result, out_dir, truths: dict | None = None) -> list[Path]:

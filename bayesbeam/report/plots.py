@@ -6,7 +6,6 @@ writes it atomically (temporary file, then rename).
 from __future__ import annotations
 
 import io
-import os
 from pathlib import Path
 
 import matplotlib
@@ -15,6 +14,8 @@ matplotlib.use("Agg")
 import corner
 import matplotlib.pyplot as plt
 import numpy as np
+
+from bayesbeam.io.atomic import atomic_write
 
 #: 2-D contour levels of the corner plots: the probability mass inside 1 and 2 "sigma"
 #: for a 2-D Gaussian, 1 - exp(-k^2/2) for k = 1, 2
@@ -29,11 +30,10 @@ SIGNAL_UNITS = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
 def save(fig, path) -> Path:
     """Write ``fig`` to ``path`` atomically and close it."""
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}{path.suffix}")
-    fig.savefig(tmp, **SAVEFIG)
-    os.replace(tmp, path)
-    plt.close(fig)
-    return path
+    try:
+        return atomic_write(path, lambda p: fig.savefig(p, format=path.suffix.lstrip("."), **SAVEFIG))
+    finally:
+        plt.close(fig)
 
 
 def png_bytes(fig) -> bytes:
