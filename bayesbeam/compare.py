@@ -68,7 +68,6 @@ class ModelResult:
     check: object
     screens: dict
     pointwise: np.ndarray
-    seconds: float
 
     @property
     def draws(self) -> np.ndarray:
@@ -103,17 +102,20 @@ def check_job(args):
 
 
 # ---------------------------------------------------------------------------- the comparison
-def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, executor=None, log=None) -> dict:
-    """Compare ``models`` on ``rec``; returns ``{name: ModelResult}`` plus the JSON-ready summary.
+def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, executor=None,
+            log=None) -> tuple[dict, dict]:
+    """Compare ``models`` on ``rec``: ``(results, summary)``.
 
-    The return value is ``(results, summary)``; see :func:`summarise` for the summary's layout.
+    ``results`` maps each model to its :class:`ModelResult`; ``summary`` is the JSON-ready
+    comparison (see :func:`summarise`). ``log``: a callable taking a line of progress, or None.
     """
     config = config or CompareConfig()
     executor = executor or SerialExecutor()
     models = list(dict.fromkeys(models))
     seeds = np.random.SeedSequence(config.seed).spawn(3)
     started = time.perf_counter()
-    _say(log, f"optimising {len(models)} models ({', '.join(models)})")
+    say = log or (lambda _text: None)
+    say(f"optimising {len(models)} models ({', '.join(models)})")
     stage1 = executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i)) for i, m in enumerate(models)])
     smc_args, owners = [], []
     for i, (model, (problem, optimum, _)) in enumerate(zip(models, stage1)):
@@ -123,30 +125,26 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
         for r in range(config.repeats):
             smc_args.append((post, reference, _seed(seeds[1], i * 1000 + r), particles))
             owners.append(model)
-    _say(log, f"evidence: {len(smc_args)} SMC runs ({config.repeats} per model)")
+    say(f"evidence: {len(smc_args)} SMC runs ({config.repeats} per model)")
     runs = executor.map(smc_job, smc_args)
     evidences = {m: combine_runs([r for r, o in zip(runs, owners) if o == m]) for m in models}
-    _say(log, "posterior predictive checks")
-    checks = executor.map(check_job, [(stage1[i][0].posterior, evidences[m].samples.reshape(-1, stage1[i][0].posterior.ndim),
-                                        _seed(seeds[2], i), config.replicates) for i, m in enumerate(models)])
+    say("posterior predictive checks")
+    posteriors = [problem.posterior for problem, _, _ in stage1]
+    checks = executor.map(check_job, [(post, evidences[m].samples.reshape(-1, post.ndim), _seed(seeds[2], i),
+                                        config.replicates) for i, (m, post) in enumerate(zip(models, posteriors))])
     results = {}
     for (model, (problem, optimum, record)), (check, pointwise) in zip(zip(models, stage1), checks):
         screens = {"bic": bic(problem.posterior, optimum),
                    "laplace": laplace_log_evidence(optimum),
                    "psis_lfo": psis_lfo(pointwise), "psis_loo": psis_loo(pointwise)}
         results[model] = ModelResult(model, problem, optimum, record, evidences[model], check, screens,
-                                     pointwise, 0.0)
+                                     pointwise)
     summary = summarise(rec, results, time.perf_counter() - started)
     return results, summary
 
 
 def _seed(seq, i) -> int:
     return int(np.random.default_rng([*seq.generate_state(2), i]).integers(2**31))
-
-
-def _say(log, text):
-    if log is not None:
-        log(text)
 
 
 # ---------------------------------------------------------------------------- summary

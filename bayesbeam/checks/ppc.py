@@ -64,7 +64,7 @@ def posterior_predictive_check(posterior, draws: np.ndarray, rng: np.random.Gene
     f_model = modes_in_band(model, posterior, draws, proj.max_frequency)
     observed = rec.signals
     stats = {"residual_spectrum": ([], []), "ljung_box": ([], [])}
-    rep_modes, obs_modes, predictions = [], None, []
+    rep_modes, predictions = [], []
     for theta in picks:
         params, noise = posterior.split(theta)
         clean = lik.predict(params, noise)

@@ -39,15 +39,15 @@ def run(args) -> int:
     config = comparison_config(args)
     out = Path(args.out)
     targets = _targets(args.recordings, out)
-    log = None if args.quiet else stderr_progress
+    say = (lambda _text: None) if args.quiet else stderr_progress
     executor = get_executor(args.executor, args.processes)
     try:
         for source, target in targets:
             if (target / "comparison.json").exists():
-                _say(log, f"{source}: already compared in {target}, skipped")
+                say(f"{source}: already compared in {target}, skipped")
                 continue
-            _say(log, f"{source}: comparing {len(models)} models")
-            results, summary = compare(load_recording(source), models, config, executor, log=log)
+            say(f"{source}: comparing {len(models)} models")
+            results, summary = compare(load_recording(source), models, config, executor, log=say)
             write_comparison(results, summary, target)
     finally:
         executor.close()
@@ -92,8 +92,3 @@ def _write_csv(rows, path: Path) -> None:
     writer.writeheader()
     writer.writerows(rows)
     write_text(path, buffer.getvalue())
-
-
-def _say(log, text):
-    if log is not None:
-        log(text)
