@@ -130,7 +130,7 @@ def _nearest_positive_definite(cov):
 
 # ---------------------------------------------------------------------------- the tempered target
 class TemperedTarget:
-    r"""log f_beta(theta) with (log pi, log L) as emcee blobs; picklable for process pools.
+    r"""log f_beta(theta) with (log pi, log L, log q) as emcee blobs; picklable for process pools.
 
     ``terms``: callable theta -> (log prior, log likelihood), e.g. ``LogPosterior.terms`` or, in
     pool workers, :func:`bayesbeam.inference.sampler.worker_terms`.
@@ -142,9 +142,9 @@ class TemperedTarget:
     def __call__(self, theta):
         log_prior, log_lik = self.terms(theta)
         if not (np.isfinite(log_prior) and np.isfinite(log_lik)):
-            return -np.inf, log_prior, log_lik
+            return -np.inf, log_prior, log_lik, -np.inf
         log_q = float(self.reference.log_density(theta)[0])
-        return (1 - self.beta) * log_q + self.beta * (log_prior + log_lik), log_prior, log_lik
+        return (1 - self.beta) * log_q + self.beta * (log_prior + log_lik), log_prior, log_lik, log_q
 
 
 # ---------------------------------------------------------------------------- one SMC run
@@ -185,9 +185,8 @@ def smc(terms, reference: Reference, rng: np.random.Generator, *, n_particles: i
         betas.append(beta)
         keep = _systematic_resample(log_w, rng)
         theta, log_prior, log_lik, log_q = theta[keep], log_prior[keep], log_lik[keep], log_q[keep]
-        theta, log_prior, log_lik, accepted, used = _move(terms, reference, beta, theta, log_prior,
-                                                          log_lik, rng, min_accepted, pool)
-        log_q = reference.log_density(theta)
+        theta, log_prior, log_lik, log_q, accepted, used = _move(terms, reference, beta, theta, log_prior,
+                                                                 log_lik, log_q, rng, min_accepted, pool)
         n_eval += used * n_particles
         acceptance.append(accepted)
         if progress is not None:
@@ -225,7 +224,11 @@ def _systematic_resample(log_w, rng) -> np.ndarray:
     return np.minimum(np.searchsorted(np.cumsum(w), positions), len(w) - 1)
 
 
-def _move(terms, reference, beta, theta, log_prior, log_lik, rng, min_accepted, pool):
+#: what each particle carries besides its position (the tempered density is rebuilt from these)
+BLOBS = [("log_prior", float), ("log_lik", float), ("log_q", float)]
+
+
+def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_accepted, pool):
     """emcee DE moves on f_beta until min_accepted accepted moves per particle on average.
 
     (Not the snooker or stretch moves: after resampling, particles coincide, and a snooker move
@@ -233,11 +236,9 @@ def _move(terms, reference, beta, theta, log_prior, log_lik, rng, min_accepted, 
     """
     n, ndim = theta.shape
     target = TemperedTarget(terms, reference, beta)
-    log_f = (1 - beta) * reference.log_density(theta) + beta * (log_prior + log_lik)
-    blobs = np.array(list(zip(log_prior, log_lik)), dtype=[("log_prior", float), ("log_lik", float)])
-    sampler = emcee.EnsembleSampler(n, ndim, target, pool=pool,
-                                    moves=emcee.moves.DEMove(),
-                                    blobs_dtype=[("log_prior", float), ("log_lik", float)])
+    log_f = (1 - beta) * log_q + beta * (log_prior + log_lik)
+    blobs = np.array(list(zip(log_prior, log_lik, log_q)), dtype=BLOBS)
+    sampler = emcee.EnsembleSampler(n, ndim, target, pool=pool, moves=emcee.moves.DEMove(), blobs_dtype=BLOBS)
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
     state = emcee.State(theta, log_prob=log_f, blobs=blobs)
     steps = 0
@@ -247,7 +248,7 @@ def _move(terms, reference, beta, theta, log_prior, log_lik, rng, min_accepted, 
         if np.mean(sampler.acceptance_fraction) * steps >= min_accepted:
             break
     b = state.blobs
-    return state.coords, np.asarray(b["log_prior"]), np.asarray(b["log_lik"]), \
+    return state.coords, np.asarray(b["log_prior"]), np.asarray(b["log_lik"]), np.asarray(b["log_q"]), \
         float(np.mean(sampler.acceptance_fraction)), steps
 
 
