@@ -79,7 +79,10 @@ def _one_mode(y, time, fs, lo, hi, start, noise_sd):
     # white noise band-passed to (lo, hi) has sd noise_sd sqrt(2 (hi - lo) / fs)
     floor = FLOOR * noise_sd * np.sqrt(2 * (hi - lo) / fs)
     keep &= np.abs(analytic) > floor
-    keep[np.argmax(keep) + np.argmin(keep[np.argmax(keep):]) if not keep[-1] else len(keep):] = False
+    if not keep[-1]:
+        # the envelope sank into the noise: stop at its first dip below the floor
+        first = np.argmax(keep)
+        keep[first + np.argmin(keep[first:]):] = False
     if keep.sum() < 16:
         return nan
     amp = np.abs(analytic[keep])
