@@ -60,10 +60,7 @@ class LogPosterior:
         return (lp, self.log_likelihood(theta)) if np.isfinite(lp) else (-np.inf, -np.inf)
 
     def __call__(self, theta) -> float:
-        lp = self.log_prior(theta)
-        if not np.isfinite(lp):
-            return -np.inf
-        return lp + self.log_likelihood(theta)
+        return float(sum(self.terms(theta)))
 
     def profiled(self, model_theta) -> float:
         """log posterior with each channel's noise sd at its conditional optimum (RMS residual).
