@@ -21,7 +21,7 @@ from bayesbeam.physics import effects as effect_catalogue
 from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics.basis import SplineBasis
 from bayesbeam.physics.effects import Setup
-from bayesbeam.physics.mechanisms import resolve
+from bayesbeam.physics.mechanisms import PRESETS, resolve
 from bayesbeam.response.linear import (
     ORDERS,
     STOPBAND,
@@ -38,6 +38,28 @@ from bayesbeam.response.system import SecondOrderSystem, undamped_modes
 PARAMETER_UNITS = {"EI": "N m^2"}
 
 
+def split_model(spec) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """(mechanism names, effect names) of a model named by presets, mechanisms and effects.
+
+    >>> split_model("q3+root_compliance")
+    (('air', 'spatial_hysteresis'), ('root_compliance',))
+    >>> split_model(["strain_rate", "measurement_delay"])
+    (('strain_rate',), ('measurement_delay',))
+
+    Unknown names stay with the mechanisms, whose resolver names the known ones in its error.
+    """
+    names = PRESETS.get(spec, spec.split("+")) if isinstance(spec, str) else tuple(spec)
+    mechanisms, effects = [], []
+    for name in filter(None, names):
+        if name in PRESETS:
+            mechanisms += PRESETS[name]
+        elif name in effect_catalogue.REGISTRY:
+            effects.append(name)
+        else:
+            mechanisms.append(name)
+    return tuple(mechanisms), tuple(effects)
+
+
 class BeamModel:
     """A cantilever with tip body, damping mechanisms, and one recording's test set-up.
 
@@ -46,7 +68,8 @@ class BeamModel:
     recording : Recording
         Supplies the beam (length, rho*A), tip body (m_T, J), excitation, sensors and time grid.
     mechanisms : str or sequence of str
-        A preset (``"q1"``, ``"q2"``, ``"q3"``), a ``+``-joined string or a list of mechanism names.
+        A preset (``"q1"``, ``"q2"``, ``"q3"``), a ``+``-joined string or a list of names; effect
+        names may be joined in too (``"q3+root_compliance"``, see :func:`split_model`).
     n_intervals : int
         Spline grid intervals N (the model has N+1 degrees of freedom).
     force_window : bool or None
@@ -59,8 +82,10 @@ class BeamModel:
     def __init__(self, recording: Recording, mechanisms="q1", n_intervals: int = 16,
                  force_window: bool | None = None, effects=None):
         self.recording = recording
+        mechanisms, joined = split_model(mechanisms)
         self.mechanisms = resolve(mechanisms)
-        self.effects = effect_catalogue.resolve(effects)
+        named = tuple(e.name for e in effect_catalogue.resolve(effects))
+        self.effects = effect_catalogue.resolve(joined + named)
         self.n_intervals = int(n_intervals)
         beam, tip = recording.beam, recording.tip
         root = "pinned" if any(e.root == "pinned" for e in self.effects) else "clamped"
