@@ -260,14 +260,23 @@ def _whitening(f, used) -> np.ndarray:
 
 
 def _jacobian(base: _Evaluator, posterior, theta, f0) -> np.ndarray:
-    """dF/d(theta_k) for the model parameters (sampling coordinates): (n_features, k)."""
+    """dF/d(theta_k) for the model parameters (sampling coordinates): (n_features, k).
+
+    The step is JACOBIAN_STEP in log coordinates and that fraction of the prior's width in linear
+    ones (a delay's 1e-3 would be a whole millisecond); one-sided where the central difference
+    would leave the prior's support (a delay near zero).
+    """
     k = len(posterior.model_names)
     cols = []
     for i in range(k):
+        prior = posterior.priors[i]
+        lo, hi = prior.bounds()
+        h = JACOBIAN_STEP * (1.0 if prior.log_scale else hi - lo)
+        up, down = min(h, hi - theta[i]), min(h, theta[i] - lo)
         step = np.zeros_like(theta)
-        step[i] = JACOBIAN_STEP
-        plus, minus = (base(posterior.split(theta + sign * step)[0]) for sign in (1, -1))
-        cols.append((plus - minus) / (2 * JACOBIAN_STEP))
+        step[i] = 1.0
+        plus, minus = (base(posterior.split(theta + d * step)[0]) for d in (up, -down))
+        cols.append((plus - minus) / (up + down))
     return np.array(cols).T if cols else np.zeros((f0.size, 0))
 
 
