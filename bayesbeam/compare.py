@@ -84,8 +84,8 @@ class ModelResult:
 # ---------------------------------------------------------------------------- jobs
 def optimise_job(args):
     """Job 1: (problem, optimum, discretisation record) of one model."""
-    rec, model, config, seed = args
-    return choose_discretisation(rec, model, config.fit, np.random.default_rng(seed))
+    rec, model, config, seed, start = args
+    return choose_discretisation(rec, model, config.fit, np.random.default_rng(seed), start=start)
 
 
 def smc_job(args):
@@ -103,11 +103,13 @@ def check_job(args):
 
 # ---------------------------------------------------------------------------- the comparison
 def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, executor=None,
-            log=None) -> tuple[dict, dict]:
+            log=None, starts: dict | None = None) -> tuple[dict, dict]:
     """Compare ``models`` on ``rec``: ``(results, summary)``.
 
     ``results`` maps each model to its :class:`ModelResult`; ``summary`` is the JSON-ready
     comparison (see :func:`summarise`). ``log``: a callable taking a line of progress, or None.
+    ``starts``: model -> parameter values to optimise from as well (see
+    :func:`~bayesbeam.inference.fit.choose_discretisation`).
     """
     config = config or CompareConfig()
     executor = executor or SerialExecutor()
@@ -116,7 +118,8 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     started = time.perf_counter()
     say = log or (lambda _text: None)
     say(f"optimising {len(models)} models ({', '.join(models)})")
-    stage1 = executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i)) for i, m in enumerate(models)])
+    stage1 = executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i), (starts or {}).get(m))
+                                          for i, m in enumerate(models)])
     smc_args, owners = [], []
     for i, (model, (problem, optimum, _)) in enumerate(zip(models, stage1)):
         post = problem.posterior

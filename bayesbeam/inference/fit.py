@@ -233,8 +233,11 @@ def _pool_for(pool, posterior):
     return pool
 
 
-def choose_discretisation(rec, model, config: FitConfig, rng, log=None):
+def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: dict | None = None):
     """(problem, optimum, record) at the N the data need; see :data:`SHIFT_TOLERANCE`.
+
+    ``start`` (parameter values by name, e.g. a nested model's optimum extended by an effect's
+    value) adds a local optimisation from there to the global one; the higher optimum is kept.
 
     The optimum at N is compared with the optimum at the next finer N, estimated by one Newton
     step of the finer model's log posterior from the coarse optimum (exact to second order in the
@@ -246,6 +249,9 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None):
     """
     problem = prepare(rec, model, config, config.n_intervals or N_LADDER[0])
     optimum = find_optimum(problem.posterior, rng, log=log)
+    if start is not None:
+        local = find_optimum(problem.posterior, rng, start=start, log=log)
+        optimum = local if local.log_posterior > optimum.log_posterior else optimum
     k = len(problem.posterior.model_names)
     moved_up = False
     while True:
