@@ -1,0 +1,293 @@
+r"""What is the best damping model missing? Locate, name, model and show (the diagnosis).
+
+1. **Baseline.** The named model (``model="q3"``), or the best of
+   :data:`bayesbeam.compare.DEFAULT_MODELS` by evidence, fitted by :func:`bayesbeam.compare.compare`
+   (optimum, discretisation, SMC evidence, posterior draws).
+2. **Locate** (:func:`bayesbeam.checks.discrepancy.locate`): where the residual stands above the
+   noise floor, per mode, and the delay.
+3. **Name** (:func:`bayesbeam.checks.signatures.rank_effects`): each catalogue effect's signature
+   against the mismatch, ranked before anything expensive is fitted.
+4. **Model.** The supported candidates (at least the top-ranked one, at most
+   ``candidates``) are added to the current model one at a time and fitted like it (own
+   discretisation check, SMC evidence from repeated runs). A candidate is **added** when
+
+   * its log Bayes factor against the current model exceeds :data:`DECISIVE` = 5 nats
+     (2 ln B > 10, "very strong" on Kass & Raftery's 1995 scale: odds above 150 : 1, so that the
+     extra parameter's Occam penalty, already inside the evidence, is beaten by a clear margin
+     and a handful of null recordings cannot produce one by chance) by more than three standard
+     errors of the estimate, **and**
+   * the mismatch map improves: the RMS standardized residual falls and the number of flags
+     (significant spectrogram cells, per-mode flags, a delay) does not grow. Evidence alone could
+     prefer a model that is better on average but wrong where it matters.
+
+   Of several candidates that pass, the one with the largest log Bayes factor is added.
+5. **Repeat once** (``rounds = 2``) from the augmented model for a second effect.
+6. **Show.** Whatever beam physics the final model still misses (map regions not labelled as
+   pickup, or a significant projected mismatch) is reported as ``unexplained``, with where it is.
+
+Nothing is fitted when the baseline's map flags nothing and its signature mismatch is
+insignificant: there is nothing to explain, and ``added`` is empty.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bayesbeam.checks.discrepancy import ALPHA, Mismatch, locate
+from bayesbeam.checks.signatures import rank_effects
+from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
+from bayesbeam.model import split_model
+
+#: decisive log Bayes factor (nats) for adding an effect; see the module docstring
+DECISIVE = 5.0
+#: and by this many standard errors of the evidence difference
+DECISIVE_SD = 3.0
+
+
+@dataclass
+class DiagnoseConfig:
+    """Settings of a diagnosis.
+
+    compare: fit and evidence settings of every model fitted (baseline and augmented);
+    candidates: augmented models fitted per round; rounds: effects added at most;
+    replicates: replicates of the mismatch map (see :func:`bayesbeam.checks.discrepancy.locate`).
+    """
+
+    compare: CompareConfig = field(default_factory=CompareConfig)
+    candidates: int = 2
+    rounds: int = 2
+    replicates: int = 40
+
+
+@dataclass
+class Trial:
+    """One augmented model: the effect tried, its fit, its map and the decision."""
+
+    round: int
+    effect: str
+    result: object                  # bayesbeam.compare.ModelResult
+    mismatch: Mismatch
+    log_bayes_factor: float         # against the model it was added to
+    log_bayes_factor_sd: float
+    decisive: bool
+    improved: bool
+    added: bool = False
+
+
+@dataclass
+class Diagnosis:
+    """A diagnosis: the baseline, the maps, the rankings, the trials and the final model."""
+
+    baseline: object                # ModelResult
+    baseline_mismatch: Mismatch
+    rankings: list                  # one Ranking per round that ranked
+    trials: list
+    final: object                   # ModelResult
+    final_mismatch: Mismatch
+    comparison: dict | None         # compare's summary when the baseline was chosen by evidence
+    seconds: float
+
+    @property
+    def added(self) -> list[str]:
+        return [t.effect for t in self.trials if t.added]
+
+    def remaining(self) -> list[dict]:
+        """Map regions of the final model that are beam physics (not labelled pickup/non-decaying)."""
+        return beam_regions(self.final_mismatch)
+
+    @property
+    def unexplained(self) -> bool:
+        """The final model still misses beam physics somewhere (see :meth:`remaining`)."""
+        return bool(self.remaining())
+
+    def to_dict(self) -> dict:
+        """diagnosis.json (the issue's layout, plus the maps, rankings and decisions in full)."""
+        return summarise(self)
+
+
+# ---------------------------------------------------------------------------- the diagnosis
+def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None, executor=None,
+             log=None) -> Diagnosis:
+    """Diagnose ``rec`` against ``model`` (None: the best of the default models by evidence)."""
+    config = config or DiagnoseConfig()
+    say = log or (lambda _text: None)
+    started = time.perf_counter()
+    rng = np.random.default_rng(config.compare.seed)
+    models = [model] if model else list(DEFAULT_MODELS)
+    say(f"baseline: {'fitting ' + model if model else 'comparing ' + ', '.join(models)}")
+    results, summary = compare(rec, models, config.compare, executor, log)
+    current = results[summary["best"]]
+    mismatch = _locate(current, rng, config)
+    baseline, baseline_map = current, mismatch
+    say(f"baseline {current.name}: RMS standardized residual {mismatch.rms_standardized_residual:.2f}, "
+        f"{len(mismatch.regions)} mismatch region(s)")
+    rankings, trials = [], []
+    for round_ in range(1, config.rounds + 1):
+        ranking = rank_effects(current.problem.posterior, _draws(current), mismatch)
+        rankings.append(ranking)
+        if not beam_regions(mismatch) and ranking.p_value >= ALPHA:
+            say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")
+            break
+        chosen = _candidates(ranking, config.candidates)
+        say(f"round {round_}: fitting {', '.join(current.name + '+' + c.effect for c in chosen)}")
+        fitted = _fit_augmented(rec, current, chosen, config, executor, log)
+        round_trials = [_trial(round_, current, mismatch, f, rng, config) for f in fitted]
+        trials += round_trials
+        winners = [t for t in round_trials if t.decisive and t.improved]
+        if not winners:
+            say(f"round {round_}: no candidate passes (decisive evidence and an improved map)")
+            break
+        best = max(winners, key=lambda t: t.log_bayes_factor)
+        best.added = True
+        current, mismatch = best.result, best.mismatch
+        say(f"added {best.effect}: ln B = {best.log_bayes_factor:.1f} +- {best.log_bayes_factor_sd:.1f}, "
+            f"RMS standardized residual {mismatch.rms_standardized_residual:.2f}")
+    return Diagnosis(baseline, baseline_map, rankings, trials, current, mismatch, None if model else summary,
+                     time.perf_counter() - started)
+
+
+def _locate(result, rng, config: DiagnoseConfig) -> Mismatch:
+    return locate(result.problem.posterior, _draws(result), rng, config.replicates)
+
+
+def _draws(result) -> np.ndarray:
+    return result.draws.reshape(-1, result.problem.posterior.ndim)
+
+
+def _candidates(ranking, n: int) -> list:
+    """The supported candidates in ranking order, at least the top one, at most ``n``."""
+    supported = [c for c in ranking.candidates if c.supported]
+    return (supported or ranking.candidates[:1])[:n]
+
+
+def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log) -> list:
+    """ModelResults of ``current + effect`` for each candidate (one comparison: parallel over models).
+
+    Each is optimised from its global search and, as well, from the current model's optimum with
+    the effect at the signature's value: the augmented model nests the current one, so its
+    optimum must be at least as high, and a global search alone can end in a worse mode.
+    """
+    post = current.problem.posterior
+    base = {n: v for n, v in post.split(current.optimum.theta)[0].items() if n in post.model_names}
+    specs = [f"{current.name}+{c.effect}" for c in candidates]
+    starts = {s: {**base, c.parameter: c.value} for s, c in zip(specs, candidates) if c.value is not None}
+    results, _ = compare(rec, specs, config.compare, executor, log, starts=starts)
+    return [results[s] for s in specs]
+
+
+def _trial(round_, current, mismatch, result, rng, config) -> Trial:
+    new_map = _locate(result, rng, config)
+    lbf = result.evidence.log_z - current.evidence.log_z
+    sd = float(np.hypot(result.evidence.log_z_sd, current.evidence.log_z_sd))
+    effect = split_model(result.name)[1][-1]
+    return Trial(round_, effect, result, new_map, float(lbf), sd, decisive=lbf - DECISIVE_SD * sd > DECISIVE,
+                 improved=improved(mismatch, new_map))
+
+
+def beam_regions(mismatch: Mismatch) -> list[dict]:
+    """Regions of the map that may be beam physics (a line that does not decay with the beam is not)."""
+    return [r for r in mismatch.regions if r.get("beam_physics", True) is not False]
+
+
+def flags(mismatch: Mismatch) -> int:
+    """Significant spectrogram cells + per-mode flags + a significant delay."""
+    return (int(mismatch.spectrogram.significant.sum()) + sum(len(m["flags"]) for m in mismatch.modes)
+            + int(bool(mismatch.phase.get("significant"))))
+
+
+def improved(before: Mismatch, after: Mismatch) -> bool:
+    """The map improves: RMS standardized residual falls and the flags do not grow."""
+    return (after.rms_standardized_residual < before.rms_standardized_residual
+            and flags(after) <= flags(before))
+
+
+# ---------------------------------------------------------------------------- diagnosis.json
+def summarise(d: Diagnosis) -> dict:
+    """diagnosis.json: the issue's keys first, then the maps, rankings and decision rule in full."""
+    base, final = d.baseline, d.final
+    rec = base.problem.model.recording
+    return {
+        "recording": str(rec.source) if rec.source else None,
+        "baseline": _model_entry(base, d.baseline_mismatch),
+        "mismatch": d.baseline_mismatch.regions,
+        "candidates": [_trial_entry(t, d.rankings) for t in d.trials],
+        "added": d.added,
+        "unexplained": d.unexplained,
+        "unexplained_regions": d.remaining(),
+        "not_beam_physics": [r for r in d.final_mismatch.regions if r.get("beam_physics") is False],
+        "final": {**_model_entry(final, d.final_mismatch), "mismatch": d.final_mismatch.regions},
+        "summary": paragraph(d),
+        "rankings": [{"round": i + 1, "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "notes": r.notes,
+                      "candidates": [c.to_dict() for c in r.candidates]} for i, r in enumerate(d.rankings)],
+        "maps": {"baseline": d.baseline_mismatch.to_dict(), "final": d.final_mismatch.to_dict()},
+        "decision_rule": {"log_bayes_factor_above": DECISIVE, "by_standard_errors": DECISIVE_SD,
+                          "map_must_improve": "RMS standardized residual falls and flags do not grow",
+                          "alpha": ALPHA},
+        "baseline_comparison": None if d.comparison is None else {
+            m: {"log_evidence": v["log_evidence"], "probability": v["probability"]}
+            for m, v in d.comparison["models"].items()},
+        "seconds": round(d.seconds, 1),
+    }
+
+
+def _model_entry(result, mismatch: Mismatch) -> dict:
+    return {"model": result.name, "log_evidence": result.evidence.log_z,
+            "log_evidence_sd": result.evidence.log_z_sd,
+            "rms_standardized_residual": mismatch.rms_standardized_residual, "flags": flags(mismatch),
+            "n_intervals": result.problem.model.n_intervals}
+
+
+def effect_parameters(trial: Trial) -> dict:
+    """Posterior summary of the added effect's own parameters."""
+    effect = next(e for e in trial.result.problem.model.effects if e.name == trial.effect)
+    return {k: v for k, v in posterior_summary(trial.result).items() if k in effect.parameters}
+
+
+def _trial_entry(t: Trial, rankings) -> dict:
+    signature = next((c for c in rankings[t.round - 1].candidates if c.effect == t.effect), None)
+    return {"effect": t.effect, "round": t.round, "model": t.result.name,
+            "delta_log_evidence": t.log_bayes_factor, "delta_log_evidence_sd": t.log_bayes_factor_sd,
+            "parameters": effect_parameters(t),
+            "rms_standardized_residual": t.mismatch.rms_standardized_residual, "flags": flags(t.mismatch),
+            "decisive": t.decisive, "map_improved": t.improved, "added": t.added,
+            "signature": None if signature is None else signature.to_dict()}
+
+
+def paragraph(d: Diagnosis) -> str:
+    """What was missing, the evidence, how much the fit improved: in plain words."""
+    base, bmap, fmap = d.baseline.name, d.baseline_mismatch, d.final_mismatch
+    text = [(f"Baseline {base}: RMS standardized residual {bmap.rms_standardized_residual:.2f} "
+             f"(1 when the model explains everything but noise), {flags(bmap)} flag(s) in the mismatch map.")]
+    lines = [r for r in bmap.regions if r.get("beam_physics") is False]
+    if lines:
+        text.append("Not beam physics (not fitted): " + "; ".join(
+            f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz on {r['sensor']}: {r['note']}" for r in lines) + ".")
+    if not beam_regions(bmap) and not d.trials:
+        text.append("Nothing the damping model leaves out shows above the noise: no effect was added.")
+        return " ".join(text)
+    for t in d.trials:
+        params = ", ".join(f"{k} = {v['mean']:.3g} {v['unit']} (90 %: {v['q05']:.3g} to {v['q95']:.3g})"
+                           for k, v in effect_parameters(t).items())
+        verdict = "added" if t.added else "not added: " + (
+            "the evidence is not decisive" if not t.decisive else "the mismatch map does not improve")
+        text.append(f"Round {t.round}, {t.effect}: log Bayes factor {t.log_bayes_factor:.1f} +- "
+                    f"{t.log_bayes_factor_sd:.1f} nats against {_parent(t, d)}, RMS standardized residual "
+                    f"{t.mismatch.rms_standardized_residual:.2f}, {flags(t.mismatch)} flag(s); {params}: {verdict}.")
+    if d.added:
+        text.append(f"Missing physics found: {' and '.join(d.added)}. The fit improved from RMS "
+                    f"{bmap.rms_standardized_residual:.2f} to {fmap.rms_standardized_residual:.2f}, log evidence "
+                    f"from {d.baseline.evidence.log_z:.1f} to {d.final.evidence.log_z:.1f}.")
+    else:
+        text.append("No catalogue effect explains the mismatch.")
+    if d.unexplained:
+        text.append("Unexplained: " + "; ".join(
+            f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz, {r['time_s'][0]:.3g}-{r['time_s'][1]:.3g} s on "
+            f"{r['sensor']} ({r['note']})" for r in d.remaining()) + ".")
+    return " ".join(text)
+
+
+def _parent(trial: Trial, d: Diagnosis) -> str:
+    parent = [t for t in d.trials if t.added and t.round < trial.round]
+    return parent[-1].result.name if parent else d.baseline.name

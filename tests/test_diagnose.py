@@ -1,0 +1,82 @@
+"""The diagnosis (locate, name, model, show) on concealed effects, a null recording and a residual
+no catalogue effect can explain.
+
+Cheap cases of tests/diagnosis_cases.py: paper beam, 1 s at 512 Hz, q1 damping, N = 6, 2 % noise,
+diagnosed blind against q1 (2 SMC repeats, 20 map replicates).
+"""
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from bayesbeam.diagnose import DECISIVE, diagnose, flags, improved
+from tests.diagnosis_cases import CONCEALED, CONFIG, diagnosed, recording
+
+#: the map's RMS standardized residual of a right model is 1 up to its own scatter: it averages
+#: ~500 band coordinates (sd of the mean square ~ sqrt(2/500) = 0.06) over a floor estimated
+#: from the same cells; 0.1 is 1.6 sd
+RMS_TOLERANCE = 0.1
+
+
+@pytest.mark.parametrize("effect", sorted(CONCEALED))
+def test_a_concealed_effect_is_named_added_and_its_truth_covered(effect):
+    d = diagnosed(effect)
+    (name, truth), = CONCEALED[effect].items()
+    assert d.added == [effect] and not d.unexplained
+    trial = next(t for t in d.trials if t.added)
+    assert trial.log_bayes_factor - 3 * trial.log_bayes_factor_sd > DECISIVE
+    summary = d.to_dict()
+    estimate = summary["candidates"][d.trials.index(trial)]["parameters"][name]
+    assert estimate["q05"] <= truth <= estimate["q95"], (estimate, truth)
+    # the baseline misses the recording; the augmented model does not
+    assert d.baseline_mismatch.rms_standardized_residual > 1 + RMS_TOLERANCE
+    assert abs(d.final_mismatch.rms_standardized_residual - 1) < RMS_TOLERANCE
+    assert flags(d.baseline_mismatch) > 0 and flags(d.final_mismatch) == 0
+    assert summary["final"]["model"] == f"q1+{effect}" and summary["final"]["log_evidence"] > summary["baseline"]["log_evidence"]
+
+
+def test_nothing_is_fitted_or_added_on_a_null_recording():
+    d = diagnosed(None)
+    assert d.added == [] and d.trials == [] and not d.unexplained
+    assert abs(d.baseline_mismatch.rms_standardized_residual - 1) < RMS_TOLERANCE
+    assert "no effect was added" in d.to_dict()["summary"]
+
+
+def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
+    """A decaying 80 Hz line between modes 3 and 4 (a mode the beam model does not have)."""
+    rec = recording(None)
+    t, y = rec.time, rec.signals.copy()
+    y[:, 0] += 0.15 * np.sqrt(np.mean(y**2)) * np.exp(-3.0 * t) * np.sin(2 * np.pi * 80.0 * t) * (t > 0.02)
+    d = diagnose(rec.with_signals(y), "q1", CONFIG)
+    assert d.added == [] and d.unexplained and d.trials            # the top candidate was tried, not added
+    assert not any(t.decisive and t.improved for t in d.trials)
+    (region,) = d.remaining()
+    assert region["band_hz"][0] <= 80.0 <= region["band_hz"][1] and region["sensor"] == "accel_tip"
+    assert "Unexplained: " in d.to_dict()["summary"]
+
+
+def test_diagnosis_json_has_the_issue_layout():
+    summary = json.loads(json.dumps(diagnosed("root_compliance").to_dict()))
+    assert {"baseline", "mismatch", "candidates", "added", "unexplained", "final"} <= set(summary)
+    assert {"model", "log_evidence", "rms_standardized_residual"} <= set(summary["baseline"])
+    assert {"band_hz", "time_s", "sensor", "note"} <= set(summary["mismatch"][0])
+    candidate = summary["candidates"][0]
+    assert candidate["effect"] == "root_compliance" and candidate["delta_log_evidence"] > DECISIVE
+    assert {"mean", "q05", "q95"} <= set(candidate["parameters"]["k_theta"])
+    assert summary["final"]["model"] == "q1+root_compliance"
+
+
+def _map(rms, cells=0, mode_flags=(), delay=False):
+    spectrogram = SimpleNamespace(significant=np.array([True] * cells + [False]))
+    return SimpleNamespace(rms_standardized_residual=rms, spectrogram=spectrogram,
+                           modes=[{"flags": list(mode_flags)}], phase={"significant": delay})
+
+
+def test_the_map_improves_only_if_the_residual_falls_and_flags_do_not_grow():
+    before = _map(1.3, cells=4, mode_flags=["frequency"])
+    assert flags(before) == 5
+    assert improved(before, _map(1.0))
+    assert not improved(before, _map(1.3))                       # residual did not fall
+    assert not improved(before, _map(1.1, cells=6))              # fewer misfit overall, more flags
+    assert not improved(before, _map(1.1, cells=4, mode_flags=["frequency"], delay=True))
