@@ -276,14 +276,14 @@ def _sum_sections(s: np.ndarray, den: np.ndarray, beta: np.ndarray, alpha: np.nd
     re_rows, im_rows, den_im = _section_rows(s, den, g)
     r, m = beta.shape[1], den.shape[0]
     num = beta if alpha is None else np.hstack([beta, alpha])
-    out = np.empty((s.size, num.shape[1]), dtype=complex)
-    parts = out.view(float).reshape(s.size, -1, 2)
+    out = np.empty((s.size, r), dtype=complex)
+    parts = out.view(float).reshape(s.size, r, 2)
     step = max(1, _BLOCK // m)
-    work = _scratch(4 * m * step)
+    work = _scratch(4 * m * step + (0 if alpha is None else 4 * r * step))
     for i in range(0, s.size, step):
         blk = slice(i, i + step)
-        size = m * min(step, s.size - i)
-        a, b, t, u = (work[k * size:(k + 1) * size].reshape(m, -1) for k in range(4))
+        n = min(step, s.size - i)
+        a, b, t, u = (work[k * m * n:(k + 1) * m * n].reshape(m, n) for k in range(4))
         np.matmul(den, re_rows[:, blk], out=a)
         np.matmul(den_im, im_rows[:, blk], out=b)
         np.square(a, out=t)
@@ -292,12 +292,27 @@ def _sum_sections(s: np.ndarray, den: np.ndarray, beta: np.ndarray, alpha: np.nd
         np.reciprocal(t, out=t)
         a *= t
         b *= t
-        np.matmul(a.T, num, out=parts[blk, :, 0])
-        np.matmul(b.T, num, out=parts[blk, :, 1])
-    if alpha is not None:                               # in place: no temporaries of H's size
-        out[:, r:] *= s[:, None]
-        out[:, :r] += out[:, r:]
-    return out[:, :r]
+        if alpha is None:
+            np.matmul(a.T, num, out=parts[blk, :, 0])
+            np.matmul(b.T, num, out=parts[blk, :, 1])
+        else:
+            _with_alpha(parts[blk], a, b, num, s[blk], work[4 * m * step:4 * m * step + 4 * r * n].reshape(2, n, 2 * r))
+    return out
+
+
+def _with_alpha(parts, a, b, num, s, scratch) -> None:
+    """H = (a + i b)^T (beta + s alpha) for one block, written into ``parts`` (re, im).
+
+    The products go to contiguous scratch first: written straight into the interleaved real and
+    imaginary parts of H, the matmuls run with strided output and the q3 sum took 25 % longer.
+    """
+    r = num.shape[1] // 2
+    re, im = scratch
+    np.matmul(a.T, num, out=re)
+    np.matmul(b.T, num, out=im)
+    x, y = s.real[:, None], s.imag[:, None]
+    parts[:, :, 0] = re[:, :r] + x * re[:, r:] - y * im[:, r:]
+    parts[:, :, 1] = im[:, :r] + x * im[:, r:] + y * re[:, r:]
 
 
 def _section_rows(s: np.ndarray, den: np.ndarray, g: np.ndarray | None):
