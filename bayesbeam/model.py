@@ -60,6 +60,23 @@ def split_model(spec) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return tuple(mechanisms), tuple(effects)
 
 
+def _check_nonlinear(model) -> None:
+    """Refuse what the nonlinear integrator (:mod:`bayesbeam.response.nonlinear`) cannot do."""
+    nonlinear = [e.name for e in model.effects if not e.linear]
+    if not nonlinear:
+        return
+    if len(nonlinear) > 1:
+        raise ValueError(f"one nonlinear effect at a time is supported, got {nonlinear}")
+    if model.recording.excitation.kind == "free_decay":
+        raise ValueError(f"{nonlinear[0]}: free_decay recordings cannot be simulated with a nonlinear effect: "
+                         "the unknown state at `start` does not enter the response linearly; use a force or "
+                         "release recording")
+    memory = [m.name for m in model.mechanisms if m.hereditary]
+    if memory:
+        raise ValueError(f"{nonlinear[0]} cannot be combined with a memory mechanism ({', '.join(memory)}): "
+                         "the nonlinear integrator needs a state-space model")
+
+
 class BeamModel:
     """A cantilever with tip body, damping mechanisms, and one recording's test set-up.
 
@@ -96,6 +113,7 @@ class BeamModel:
                            exc.location if exc.kind == "force" else None)
         self.rows = self.ops.rows([s.location for s in recording.sensors])
         self.orders = np.array([ORDERS[s.quantity] for s in recording.sensors])
+        _check_nonlinear(self)
         self.grid = FrequencyGrid(recording.n_samples, recording.dt)
         self.force = self._conditioned_force(force_window)
         self.load, self.drive = self._input()

@@ -142,6 +142,13 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None)
     """Rank the catalogue ``effects`` (default: all not already in the model) for ``mismatch``."""
     model = posterior.likelihood.model
     names = [e for e in (effects or catalogue.REGISTRY) if e not in {x.name for x in model.effects}]
+    refused = {}
+    for name in names:
+        try:
+            _augmented(model, name)
+        except ValueError as exc:
+            refused[name] = str(exc)
+    names = [n for n in names if n not in refused]
     theta = np.median(draws, axis=0)
     params, _ = posterior.split(theta)
     base = _Evaluator(model, mismatch.setting)
@@ -154,7 +161,8 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None)
     found.sort(key=lambda c: (not c.supported, -c.delta_chi2))
     if len(found) > 1 and found[0].predicted:
         found[0].reasoning += _contrast(found[0], found[1], mismatch)
-    return Ranking(found, space.chi2_0, dof, p0, _ranking_notes(found, space.chi2_0, dof, p0))
+    notes = _ranking_notes(found, space.chi2_0, dof, p0) + [f"{n} not ranked: {why}" for n, why in refused.items()]
+    return Ranking(found, space.chi2_0, dof, p0, notes)
 
 
 # ---------------------------------------------------------------------------- features of a model

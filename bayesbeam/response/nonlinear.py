@@ -146,22 +146,11 @@ def integrate(model, params, initial=None, substeps: int | None = None, *, law=N
     ``law`` (drag only, for verification) replaces the drag per unit length ``g(v)`` by a pair
     ``(g, dg/dv)`` of vectorised functions. ``record`` keeps per-node diagnostics.
     """
-    exc = model.recording.excitation
-    if exc.kind == "free_decay":
-        raise ValueError("free_decay recordings cannot be simulated with a nonlinear effect: the "
-                         "unknown state at `start` does not enter the response linearly; use a "
-                         "force or release recording")
     if initial is not None:
         raise ValueError("`initial` applies to free_decay recordings only")
-    nonlinear = [e for e in model.effects if not e.linear]
-    if len(nonlinear) != 1:
-        raise ValueError(f"one nonlinear effect at a time is supported, got {[e.name for e in nonlinear]}")
-    effect = nonlinear[0]
+    effect = next(e for e in model.effects if not e.linear)     # one: BeamModel refuses more
     values = model.values(params)
     system = model.system(values)
-    if system.relaxation is not None:
-        raise ValueError(f"{effect.name} cannot be combined with a memory mechanism "
-                         "(time_hysteresis): the nonlinear integrator needs a state-space model")
     U = int(substeps or SUBSTEPS[effect.name])
     if U < 1:
         raise ValueError(f"substeps must be >= 1, got {U}")

@@ -17,8 +17,11 @@ intervals contain the truth in all five cases; that is reported, not asserted.)
 import numpy as np
 import pytest
 
+from bayesbeam.checks.discrepancy import locate
 from bayesbeam.checks.signatures import rank_effects
-from tests.checks.test_discrepancy import EFFECTS, fitted
+from bayesbeam.inference.fit import FitConfig, prepare
+from bayesbeam.inference.sampler import find_optimum
+from tests.checks.test_discrepancy import EFFECTS, REPLICATES, fitted, recording
 
 #: case -> allowed factor between the screen's estimate and the truth
 CASES = {"root_compliance": 1.5, "sensor_mass": 1.5, "measurement_delay": 1.2, "axial_load": 1.5,
@@ -62,3 +65,17 @@ def test_reasoning_states_what_a_person_can_check():
                  "The next candidate"):
         assert part in text, part
     assert np.all(np.array(best.frequency_shift_pct[:4]) < 0)
+
+
+def test_effects_the_model_cannot_take_are_left_out_with_the_reason():
+    """Time hysteresis has no finite state space, so the nonlinear effects cannot be integrated
+    with it: the ranking leaves them out and says why instead of failing."""
+    post = prepare(recording("null"), "q2", FitConfig(n_intervals=6), 6).posterior
+    optimum = find_optimum(post, np.random.default_rng(1), scan_points=81, de_iterations=15)
+    draws = np.random.default_rng(1).multivariate_normal(optimum.theta, optimum.covariance, 200)
+    result = rank_effects(post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES))
+    assert {c.effect for c in result.candidates} == {"root_compliance", "sensor_mass", "axial_load",
+                                                     "measurement_delay"}
+    notes = " ".join(result.notes)
+    for name in ("quadratic_drag", "dry_friction"):
+        assert f"{name} not ranked: {name} cannot be combined with a memory mechanism" in notes

@@ -24,6 +24,9 @@ from bayesbeam.physics.component import Component
 class Mechanism(Component):
     """A damping mechanism: its parameters (the paper's names, SI units) and its contribution."""
 
+    #: a memory term (``relaxation``): no finite state space, so no nonlinear time stepping
+    hereditary = False
+
     def damping(self, ops: BeamOperators, values: Mapping[str, float]) -> np.ndarray | None:
         """Viscous damping matrix D_m (N s/m in generalized coordinates), or None."""
         return None

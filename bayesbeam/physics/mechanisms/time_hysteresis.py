@@ -56,6 +56,7 @@ class TimeHysteresis(Mechanism):
     parameters = ("alpha", "beta", "r")
     units = {"alpha": "N m^2 s^-1/2", "beta": "1/s", "r": "s"}
     defaults = {"r": np.inf}
+    hereditary = True
     description = "time hysteresis, kernel g(s) = alpha exp(beta s)/sqrt(-s) on [-r, 0]"
 
     def check(self, values):
