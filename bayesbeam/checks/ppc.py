@@ -146,8 +146,9 @@ def _ljung_box(residual, proj, sigma) -> float:
 
 # ---------------------------------------------------------------------------- modes
 def decay_start(rec, proj) -> int:
-    """First sample of the free decay: after the impact force window (or the release)."""
-    if rec.excitation.kind == "free_decay":
+    """First sample of the free decay: after the impact force window; the window's start for a
+    release (the decay starts at t = 0) or a free decay."""
+    if rec.excitation.kind != "force":
         return proj.i0
     # the model's force is already windowed; its last non-zero sample ends the impact
     window = impact_window(rec.force)

@@ -68,3 +68,18 @@ def test_measured_damping_against_the_predictive_intervals(checks):
 
     assert sum(inside("q1")) >= 2
     assert not inside("strain_rate")[0]
+
+
+def test_a_release_decays_from_the_start_of_the_window():
+    """A release has no force channel to window: the decay starts where the fitted window does
+    (the alu_q1_release comparison failed here on a zero force before this was tested)."""
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    from bayesbeam.checks.ppc import decay_start
+    from bayesbeam.io import Excitation
+
+    rec, _ = cases.simulated("q1", seed=3)
+    release = replace(rec, excitation=Excitation("release", tip_load=0.4), force=None)
+    assert decay_start(release, SimpleNamespace(i0=7)) == 7
+    assert decay_start(rec, SimpleNamespace(i0=7)) > 7          # a hammer: after its impact window
