@@ -7,13 +7,12 @@ ones); the time-history fits; residual spectra against the noise level; the post
 p-values; the posteriors; and the convergence diagnostics that say whether to trust the numbers.
 
 Figures are PNGs embedded as base64 data and the CSS is inline, so the file opens anywhere without
-a network. A small inline script records on ``<body data-figures-loaded="ok/total">`` how many
-images decoded, so a headless browser can check every figure.
+a network (:mod:`bayesbeam.report.html`). A small inline script records on
+``<body data-figures-loaded="ok/total">`` how many images decoded, so a headless browser can check
+every figure.
 """
 from __future__ import annotations
 
-import base64
-import html
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +20,7 @@ import numpy as np
 from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, SPECTRUM_BANDS
 from bayesbeam.compare import strength
 from bayesbeam.io.atomic import write_text
+from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
 
 # plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
 from bayesbeam.report.plots import (
@@ -28,7 +28,6 @@ from bayesbeam.report.plots import (
     SIGNAL_UNITS,
     corner_overlay,
     plt,
-    png_bytes,
     predictive_columns,
     signal_label,
 )
@@ -50,30 +49,6 @@ WIDTH = 9.0
 #: fits up to five parameters (q3 with effects) on a laptop screen
 CORNER_SHRINK = 0.75
 
-STYLE = """
-body { font: 15px/1.45 system-ui, sans-serif; color: #222; max-width: 1000px; margin: 0 auto; padding: 0 16px 48px; }
-h1 { font-size: 1.5em; margin-bottom: 0.2em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.8em; }
-nav a { margin-right: 1em; } .meta { color: #666; font-size: 0.9em; }
-.verdict { font-size: 1.08em; background: #eef4fb; border-left: 4px solid #3a78c2; padding: 10px 14px; }
-table { border-collapse: collapse; margin: 10px 0 16px; font-size: 0.88em; }
-th, td { border: 1px solid #ccc; padding: 3px 7px; text-align: right; vertical-align: top; }
-th { background: #f3f3f3; } .text { text-align: left; }
-th small { display: block; font-weight: normal; color: #555; max-width: 16em; text-align: left; }
-.bad { background: #f8d0d0; font-weight: 600; } .best { background: #e3f2e3; }
-figure { margin: 12px 0 20px; } figure img { max-width: 100%; height: auto; display: block; }
-figcaption { font-size: 0.88em; color: #444; }
-.grid { display: flex; flex-wrap: wrap; align-items: flex-end; gap: 0 24px; } ul.caveats li { margin-bottom: 4px; }
-"""
-
-SCRIPT = """
-window.addEventListener("load", function () {
-  var images = Array.prototype.slice.call(document.images);
-  var ok = images.filter(function (img) { return img.complete && img.naturalWidth > 0; }).length;
-  document.body.dataset.figuresLoaded = ok + "/" + images.length;
-});
-"""
-
-
 def write_report(results: dict, summary: dict, path) -> Path:
     """Write the report of a comparison (``compare()``'s results and summary) to ``path``, atomically."""
     return write_text(path, render(results, summary))
@@ -90,10 +65,7 @@ def render(results: dict, summary: dict) -> str:
             _checks_section(results, summary),
             _posteriors_section(results, summary),
             _convergence_section(results, summary)]
-    return ("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">"
-            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
-            f"<title>bayesbeam model comparison</title><style>{STYLE}</style>"
-            f"<script>{SCRIPT}</script></head>\n<body>\n" + "\n".join(body) + "\n</body></html>\n")
+    return page("bayesbeam model comparison", body)
 
 
 def model_colors(summary) -> dict:
@@ -103,17 +75,16 @@ def model_colors(summary) -> dict:
 
 # ---------------------------------------------------------------------------- sections
 def _header(summary) -> str:
-    nav = " ".join(f'<a href="#{a}">{t}</a>' for a, t in SECTIONS)
     rec = summary.get("recording") or "(recording given in memory)"
-    return (f"<h1>Which damping mechanism? Model comparison</h1><p class=\"meta\">Recording: {_esc(rec)}. "
-            f"{len(summary['ranking'])} models compared in {summary['seconds']:.0f} s.</p><nav>{nav}</nav>")
+    return (f"<h1>Which damping mechanism? Model comparison</h1><p class=\"meta\">Recording: {esc(rec)}. "
+            f"{len(summary['ranking'])} models compared in {summary['seconds']:.0f} s.</p>{nav(SECTIONS)}")
 
 
 def _verdict_section(summary) -> str:
     caveats = _caveats(summary)
-    caveat_html = ("<p>Caveats:</p><ul class=\"caveats\">" + "".join(f"<li>{_esc(c)}</li>" for c in caveats)
+    caveat_html = ("<p>Caveats:</p><ul class=\"caveats\">" + "".join(f"<li>{esc(c)}</li>" for c in caveats)
                    + "</ul>") if caveats else ""
-    return (_h2("verdict") + f'<p class="verdict">{_esc(summary["verdict"])}</p>' + caveat_html
+    return (h2("verdict", SECTIONS) + f'<p class="verdict">{esc(summary["verdict"])}</p>' + caveat_html
             + "<h3>Evidence</h3>" + _evidence_table(summary)
             + "<p>log Z: the log marginal likelihood (nats) by sequential Monte Carlo, mean of independent "
               "repeats &plusmn; its standard error. Probabilities assume equal prior probabilities of the "
@@ -154,12 +125,12 @@ def _evidence_table(summary) -> str:
         s = models[m]
         lbf = s["log_bayes_factor_vs_best"]
         sd = np.hypot(s["log_evidence_sd"], models[best]["log_evidence_sd"])
-        rows.append([_esc(m), _esc(_mechanisms(s)), f"{s['log_evidence']:.2f} &plusmn; {s['log_evidence_sd']:.2f}",
+        rows.append([esc(m), esc(_mechanisms(s)), f"{s['log_evidence']:.2f} &plusmn; {s['log_evidence_sd']:.2f}",
                      "&mdash;" if m == best else f"{lbf:.2f} &plusmn; {sd:.2f}", _probability(s["probability"]),
-                     "best" if m == best else _esc(strength(-lbf))])
+                     "best" if m == best else esc(strength(-lbf))])
     head = ["model", "mechanisms", "log Z [nats]", "log Bayes factor vs best", "probability",
             "evidence for the best"]
-    return _table(head, rows, text_columns=2, highlight_first=True)
+    return table(head, rows, text_columns=2, highlight_first=True)
 
 
 def _screens_table(summary) -> str:
@@ -168,17 +139,17 @@ def _screens_table(summary) -> str:
     labels = {"bic": "BIC log Z", "laplace": "Laplace log Z", "psis_lfo": "PSIS-LFO elpd",
               "psis_loo": "PSIS-LOO elpd"}
     head = ["model", "SMC log Z<small>reference: no approximation beyond Monte Carlo error</small>"]
-    head += [f"{labels[k]}<small>assumes {_esc(first[k]['assumes'])}</small>" for k in labels]
+    head += [f"{labels[k]}<small>assumes {esc(first[k]['assumes'])}</small>" for k in labels]
     rows = []
     for m in summary["ranking"]:
         s = models[m]["screens"]
         lfo, loo = s["psis_lfo"], s["psis_loo"]
-        rows.append([_esc(m), f"{models[m]['log_evidence']:.1f}", _number(s["bic"]["log_evidence"], ".1f"),
-                     _number(s["laplace"]["log_evidence"], ".1f"),
+        rows.append([esc(m), f"{models[m]['log_evidence']:.1f}", number(s["bic"]["log_evidence"], ".1f"),
+                     number(s["laplace"]["log_evidence"], ".1f"),
                      (f"{lfo['elpd']:.1f}<br><small>{lfo['unreliable_steps']} of {lfo['predicted_blocks']} "
                       f"steps k &gt; 0.7</small>"),
                      f"{loo['elpd']:.1f}<br><small>{loo['unreliable_blocks']} blocks k &gt; 0.7</small>"])
-    return _table(head, rows)
+    return table(head, rows)
 
 
 def _modes_section(summary, colors) -> str:
@@ -187,12 +158,12 @@ def _modes_section(summary, colors) -> str:
     caption = ("Damping ratio of each mode: measured (black) and each model's posterior predictive 90% "
                "interval (bars), both identified by ERA on the free decay after the excitation. "
                "Air damping falls with frequency, strain-rate damping rises with it.")
-    return (_h2("modes")
+    return (h2("modes", SECTIONS)
             + "<p>Measured modal damping ratio and frequency (ERA on the recording) against each model's "
               "90% interval of the same quantity on its replicated recordings. Cells outside the interval "
               "are highlighted.</p>"
             + "<h3>Damping ratio &zeta; [%]</h3>" + z_table + "<h3>Frequency f [Hz]</h3>" + f_table
-            + _figure(mode_plot(summary, colors), "damping ratio against mode frequency", caption))
+            + figure(mode_plot(summary, colors), "damping ratio against mode frequency", caption))
 
 
 def _mode_table(summary, measured_key, interval_key, scale, fmt) -> str:
@@ -200,16 +171,16 @@ def _mode_table(summary, measured_key, interval_key, scale, fmt) -> str:
     ranking, models = summary["ranking"], summary["models"]
     rows_by_model = {m: {row["mode"]: row for row in models[m]["modes"]} for m in ranking}
     modes = sorted({k for rows in rows_by_model.values() for k in rows})
-    table = []
+    rows = []
     for k in modes:
         measured = next((r[k][measured_key] for r in rows_by_model.values()
                          if k in r and r[k][measured_key] is not None), None)
-        cells = [str(k), _number(None if measured is None else measured * scale, fmt)]
+        cells = [str(k), number(None if measured is None else measured * scale, fmt)]
         for m in ranking:
             row = rows_by_model[m].get(k)
             cells.append(_interval_cell(row, measured_key, interval_key, scale, fmt))
-        table.append(cells)
-    return _table(["mode", "measured"] + [_esc(m) for m in ranking], table)
+        rows.append(cells)
+    return table(["mode", "measured"] + [esc(m) for m in ranking], rows)
 
 
 def _interval_cell(row, measured_key, interval_key, scale, fmt) -> str:
@@ -217,7 +188,7 @@ def _interval_cell(row, measured_key, interval_key, scale, fmt) -> str:
         return "n/a"
     lo, hi = (v * scale for v in row[interval_key])
     text = f"{lo:{fmt}}&ndash;{hi:{fmt}}"
-    return _flag(text, _outside(row[measured_key], row[interval_key]))
+    return flag(text, _outside(row[measured_key], row[interval_key]))
 
 
 def mode_plot(summary, colors):
@@ -248,12 +219,12 @@ def _fits_section(results, summary) -> str:
     intro = ("<p>The measured signal against the median and 90% band of the noiseless prediction over "
              "posterior draws (noise not added), in the fitted window: a zoom on its start and the whole; "
              "below, the residual measured minus median.</p>")
-    parts = [_h2("fits"), intro]
+    parts = [h2("fits", SECTIONS), intro]
     for m in summary["ranking"]:
         sensors = results[m].problem.model.recording.sensors
         for c, sensor in enumerate(sensors):
-            parts.append(_figure(_time_history_plot(results[m], summary["models"][m], c),
-                                 f"time history fit of {m}, {sensor.name}", ""))
+            parts.append(figure(_time_history_plot(results[m], summary["models"][m], c),
+                                f"time history fit of {m}, {sensor.name}", ""))
     return "".join(parts)
 
 
@@ -278,8 +249,8 @@ def _spectra_section(results, summary) -> str:
                "predictive median), per channel, against the RMS level the model's noise (posterior median "
                "sigma) has there (dashed): a residual standing above the dashed line is signal the model "
                "leaves out.")
-    return (_h2("spectra") + _figure(_spectra_plot(results, summary), "residual spectra against the noise level",
-                                     caption))
+    return (h2("spectra", SECTIONS)
+            + figure(_spectra_plot(results, summary), "residual spectra against the noise level", caption))
 
 
 def _spectra_plot(results, summary):
@@ -327,12 +298,12 @@ def _checks_section(results, summary) -> str:
     replicates = len(next(iter(results[ranking[0]].check.statistics.values()))["replicated"])
     rows = []
     for name in names:
-        cells = [_esc(name)]
+        cells = [esc(name)]
         for m in ranking:
             p = models[m]["ppc"].get(name, {}).get("p_value")
-            cells.append("n/a" if p is None else _flag(f"{p:.2g}", p < P_FLAG))
+            cells.append("n/a" if p is None else flag(f"{p:.2g}", p < P_FLAG))
         rows.append(cells)
-    return (_h2("checks")
+    return (h2("checks", SECTIONS)
             + f"<p>Posterior predictive p-values: how often the model's {replicates} replicated recordings are "
               f"at least as extreme as the measured one (so p is resolved to 1/{replicates}). p &lt; {P_FLAG} "
               f"(highlighted) says the recording is unlike the model's own replicates. residual_spectrum: "
@@ -340,13 +311,14 @@ def _checks_section(results, summary) -> str:
               f"ljung_box: residual autocorrelation (Ljung-Box Q, {LJUNG_BOX_LAGS} lags); zeta_mode&lt;m&gt;, "
               f"frequency_mode&lt;m&gt;: damping ratio and frequency of mode m by ERA (two-sided). n/a: the "
               f"mode was not identified.</p>"
-            + _table(["statistic"] + [_esc(m) for m in ranking], rows))
+            + table(["statistic"] + [esc(m) for m in ranking], rows))
 
 
 def _posteriors_section(results, summary) -> str:
-    corners = "".join(_figure(_corner(results[m], summary["models"][m]), f"corner plot of {m}", "")
+    corners = "".join(figure(_corner(results[m], summary["models"][m]), f"corner plot of {m}", "")
                       for m in summary["ranking"])
-    return (_h2("posteriors") + "<p>Posterior median and 90% interval of every parameter (SI units).</p>"
+    return (h2("posteriors", SECTIONS)
+            + "<p>Posterior median and 90% interval of every parameter (SI units).</p>"
             + _posterior_table(summary)
             + "<p>Corner plots of the model parameters: contours enclose 39% and 86% of the posterior mass "
               "(the 1- and 2-sigma levels of a 2-D Gaussian); the diagonal shows the marginal densities.</p>"
@@ -359,13 +331,13 @@ def _posterior_table(summary) -> str:
     rows = []
     for name in names:
         unit = next(models[m]["posterior"][name]["unit"] for m in ranking if name in models[m]["posterior"])
-        cells = [_esc(name), _esc(unit)]
+        cells = [esc(name), esc(unit)]
         for m in ranking:
             q = models[m]["posterior"].get(name)
             cells.append("&mdash;" if q is None else
                          f"{q['q50']:.4g}<br><small>{q['q05']:.4g}&ndash;{q['q95']:.4g}</small>")
         rows.append(cells)
-    return _table(["parameter", "unit"] + [_esc(m) for m in ranking], rows, text_columns=2)
+    return table(["parameter", "unit"] + [esc(m) for m in ranking], rows, text_columns=2)
 
 
 def _corner(result, model_summary):
@@ -390,8 +362,8 @@ def _corner(result, model_summary):
 def _convergence_section(results, summary) -> str:
     ranking, models = summary["ranking"], summary["models"]
     method = models[ranking[0]]["evidence"]["method"]
-    return (_h2("convergence")
-            + f"<p>Evidence: {_esc(method)}. Each repeat is an independent run; the final particles of all "
+    return (h2("convergence", SECTIONS)
+            + f"<p>Evidence: {esc(method)}. Each repeat is an independent run; the final particles of all "
               f"repeats are the posterior draws, and R-hat compares the repeats (flagged above {RHAT_FLAG}). "
               f"Acceptance: the mean fraction of accepted moves per tempering stage (its range over "
               f"stages).</p>" + _smc_table(results, summary)
@@ -407,14 +379,14 @@ def _smc_table(results, summary) -> str:
         runs = results[m].evidence.runs
         acceptance = np.concatenate([r.acceptance for r in runs])
         name, worst = _worst_rhat(s)
-        rows.append([_esc(m), ", ".join(f"{z:.2f}" for z in s["evidence"]["repeats"]),
+        rows.append([esc(m), ", ".join(f"{z:.2f}" for z in s["evidence"]["repeats"]),
                      ", ".join(str(n) for n in s["evidence"]["stages"]),
                      f"{acceptance.min():.2f}&ndash;{acceptance.max():.2f}",
-                     _flag(f"{worst:.3f} ({_esc(name)})", worst > RHAT_FLAG),
+                     flag(f"{worst:.3f} ({esc(name)})", worst > RHAT_FLAG),
                      f"{s['evidence']['evaluations']:,}", f"{s['evidence']['seconds']:.1f}"])
     head = ["model", "log Z per repeat", "stages per repeat", "acceptance", "max R-hat", "evaluations",
             "seconds"]
-    return _table(head, rows)
+    return table(head, rows)
 
 
 def _discretisation_table(summary) -> str:
@@ -422,55 +394,18 @@ def _discretisation_table(summary) -> str:
     for m in summary["ranking"]:
         d = summary["models"][m]["discretisation_check"]
         name = max(d["shift_sd"], key=d["shift_sd"].get)
-        rows.append([_esc(m), str(d["n_intervals"]) + (" (chosen)" if d["automatic"] else " (given)"),
-                     str(d["refined_n_intervals"]), f"{d['max_shift_sd']:.3g} ({_esc(name)})",
-                     str(d["tolerance_sd"]), _flag("passed" if d["passed"] else "failed", not d["passed"])])
-    return _table(["model", "N", "finer N", "largest shift [sd]", "tolerance [sd]", "check"], rows)
+        rows.append([esc(m), str(d["n_intervals"]) + (" (chosen)" if d["automatic"] else " (given)"),
+                     str(d["refined_n_intervals"]), f"{d['max_shift_sd']:.3g} ({esc(name)})",
+                     str(d["tolerance_sd"]), flag("passed" if d["passed"] else "failed", not d["passed"])])
+    return table(["model", "N", "finer N", "largest shift [sd]", "tolerance [sd]", "check"], rows)
 
 
-# ---------------------------------------------------------------------------- HTML helpers
+# ---------------------------------------------------------------------------- helpers
 def _worst_rhat(model_summary) -> tuple[str, float]:
     """(parameter, R-hat) of the least converged parameter; R-hat to the three decimals shown, so
     that a flagged value never reads as the threshold itself."""
     name, value = max(((k, v["r_hat"]) for k, v in model_summary["posterior"].items()), key=lambda kv: kv[1])
     return name, round(value, 3)
-
-
-def _h2(anchor) -> str:
-    return f'<h2 id="{anchor}">{dict(SECTIONS)[anchor]}</h2>'
-
-
-def _table(head, rows, text_columns=1, highlight_first=False) -> str:
-    """A table of already-escaped HTML cells: the first ``text_columns`` left-aligned, numbers right;
-    ``highlight_first`` marks the first row (the best model)."""
-
-    def cells(tag, row):
-        return "".join(f'<{tag} class="text">{c}</{tag}>' if j < text_columns else f"<{tag}>{c}</{tag}>"
-                       for j, c in enumerate(row))
-
-    out = [f"<table><thead><tr>{cells('th', head)}</tr></thead><tbody>"]
-    for i, row in enumerate(rows):
-        cls = ' class="best"' if highlight_first and i == 0 else ""
-        out.append(f"<tr{cls}>{cells('td', row)}</tr>")
-    return "".join(out) + "</tbody></table>"
-
-
-def _figure(fig, alt, caption) -> str:
-    data = base64.b64encode(png_bytes(fig)).decode("ascii")
-    cap = f"<figcaption>{_esc(caption)}</figcaption>" if caption else ""
-    return f'<figure><img alt="{_esc(alt)}" src="data:image/png;base64,{data}">{cap}</figure>'
-
-
-def _flag(text, bad) -> str:
-    return f'<span class="bad">{text}</span>' if bad else text
-
-
-def _esc(text) -> str:
-    return html.escape(str(text))
-
-
-def _number(value, fmt) -> str:
-    return "n/a" if value is None else f"{value:{fmt}}"
 
 
 def _probability(p) -> str:
