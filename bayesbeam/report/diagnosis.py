@@ -1,0 +1,436 @@
+"""The diagnosis report: what the damping model missed, the evidence, and how much the fit improved.
+
+One self-contained HTML file (:mod:`bayesbeam.report.html`), in the order a reader asks: the
+plain-language summary and what is still unexplained; the mismatch map of the baseline and of the
+final model side by side (where in time and frequency the residual stands above the noise floor),
+with the phase error and the delay; the per-mode table before and after; the candidates the
+signatures ranked and the decisions on the augmented fits; and the added effect's posterior against
+the signature screen's estimate. See docs/diagnosis.md for what the map and the screen measure.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.colors import LogNorm
+from matplotlib.patches import Rectangle
+
+from bayesbeam.diagnose import effect_parameters, flags
+from bayesbeam.io.atomic import write_text
+from bayesbeam.report.comparison import RHAT_FLAG, WIDTH
+from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
+
+# plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
+from bayesbeam.report.plots import plt
+
+#: (anchor, title) of the report's sections, in order
+SECTIONS = (("summary", "Summary"), ("map", "Mismatch map"), ("modes", "Per mode"),
+            ("candidates", "Candidates and decisions"), ("effect", "Added effect"))
+#: the map's colour scale: from this standardized power (below: the darkest) up to at least MAP_TOP
+MAP_BOTTOM, MAP_TOP = 0.1, 10.0
+#: colour of the outline of a cell above the noise (stands out of the colour map)
+OUTLINE = "#00e5ff"
+#: per-mode statistic -> (column title, row keys of the error and its sd, format)
+MODE_COLUMNS = {"frequency": ("frequency error [%]", "frequency_error_pct", "frequency_error_sd_pct", ".2g"),
+                "damping": ("damping error [%]", "damping_error_pct", "damping_error_sd_pct", ".2g"),
+                "amplitude": ("amplitude error [%]", "amplitude_error_pct", "amplitude_error_sd_pct", ".2g"),
+                "curvature": ("decay shape", None, None, None),
+                "phase": ("phase error at the excitation [rad]", "phase_error_rad", "phase_error_sd_rad", ".2g")}
+
+
+def write_report(d, path) -> Path:
+    """Write the report of a diagnosis (:class:`bayesbeam.diagnose.Diagnosis`) to ``path``, atomically."""
+    return write_text(path, render(d))
+
+
+def render(d) -> str:
+    """The report's HTML."""
+    summary = d.to_dict()
+    maps = compared_maps(d)
+    body = [_header(d, summary),
+            _summary_section(summary),
+            _map_section(d, maps),
+            _modes_section(maps),
+            _candidates_section(d, summary),
+            _effect_section(d)]
+    return page("bayesbeam diagnosis", body)
+
+
+def compared_maps(d) -> list[tuple[str, str, object]]:
+    """(when, model, Mismatch) of the maps shown: the baseline's ("before") and, when an effect was
+    added, the final model's ("after")."""
+    maps = [("before", d.baseline.name, d.baseline_mismatch)]
+    return maps + [("after", d.final.name, d.final_mismatch)] if d.added else maps
+
+
+def model_chain(d) -> list[tuple[object, object]]:
+    """(ModelResult, Mismatch) of the baseline, then of the model after each added effect: round r
+    ranked, and augmented, entry r - 1."""
+    return [(d.baseline, d.baseline_mismatch)] + [(t.result, t.mismatch) for t in d.trials if t.added]
+
+
+# ---------------------------------------------------------------------------- header and summary
+def _header(d, summary) -> str:
+    rec = summary["recording"] or "(recording given in memory)"
+    chosen = " (best by evidence)" if d.comparison is not None else ""
+    row = [esc(rec), esc(d.baseline.name) + chosen, esc(d.final.name), esc(", ".join(d.added) or "nothing"),
+           flag("yes", True) if d.unexplained else "no", f"{d.seconds:.0f} s"]
+    return ("<h1>What is the damping model missing? Diagnosis</h1>"
+            + table(["recording", "baseline model", "final model", "added effects", "unexplained", "run time"],
+                    [row], text_columns=5)
+            + nav(SECTIONS))
+
+
+def _summary_section(summary) -> str:
+    out = [h2("summary", SECTIONS), f'<p class="verdict">{esc(summary["summary"])}</p>']
+    if summary["not_beam_physics"]:
+        out.append("<h3>Not beam physics (not fitted)</h3><p>Lines in the final model's map that do not decay "
+                   "with the beam (pickup): left out of the diagnosis.</p>"
+                   + regions_table(summary["not_beam_physics"]))
+    if summary["unexplained_regions"]:
+        out.append("<h3>Unexplained</h3><p>Where the final model still misses beam physics.</p>"
+                   + regions_table(summary["unexplained_regions"]))
+    return "".join(out)
+
+
+def regions_table(regions) -> str:
+    """Map regions: band, time window, sensor and the finding in words."""
+    rows = [[f"{r['band_hz'][0]:.4g}&ndash;{r['band_hz'][1]:.4g}", f"{r['time_s'][0]:.3g}&ndash;{r['time_s'][1]:.3g}",
+             esc(r["sensor"]), esc(r["note"])] for r in regions]
+    return table(["band [Hz]", "time [s]", "sensor", "note"], rows, text_columns=(2, 3))
+
+
+# ---------------------------------------------------------------------------- the map
+def _map_section(d, maps) -> str:
+    intro = ("<p>Standardized residual power per time block and frequency bin: the recording minus the fitted "
+             "model's predictions (posterior draws), over the noise floor of the cells the model does fit "
+             "(1 where the model explains the recording down to its noise; see docs/diagnosis.md). Cells "
+             "standing above the noise (Holm's procedure, family-wise) are outlined; dashed lines are the "
+             "model's mode frequencies.")
+    intro += ("" if d.added else " Nothing was added, so there is no &ldquo;after&rdquo;: the baseline's map "
+                                 "only.") + "</p>"
+    names = " and ".join(f"{when} ({name})" for when, name, _ in maps)
+    caption = (f"Mismatch map {names}, on one logarithmic colour scale (1: the noise floor; "
+               f"{MAP_BOTTOM:g} and below darkest); outlined: cells above the noise; dashed: model mode frequencies.")
+    out = [h2("map", SECTIONS), intro, _map_table(maps), figure(mismatch_map_plot(maps), f"mismatch map {names}",
+                                                                 caption)]
+    out += [f"<h3>Regions of the {when} map ({esc(name)})</h3>"
+            + (regions_table(m.regions) if m.regions else "<p>None: nothing stands above the noise.</p>")
+            for when, name, m in maps]
+    return "".join(out) + _phase_part(maps)
+
+
+def _map_table(maps) -> str:
+    rows = []
+    for when, name, m in maps:
+        inflation = ", ".join(f"{esc(c)} {v['inflation']:.2f}" for c, v in m.noise.items())
+        rows.append([when, esc(name), f"{m.rms_standardized_residual:.3f}", str(int(m.spectrogram.significant.sum())),
+                     str(sum(len(r["flags"]) for r in m.modes)), _delay_cell(m.phase), str(flags(m)), inflation])
+    head = ["map", "model", "RMS standardized residual<small>1: nothing but noise</small>", "flagged cells",
+            "per-mode flags", "delay [ms]", "flags in all", "fitted noise sd / floor"]
+    return table(head, rows, text_columns=2)
+
+
+def _delay_cell(phase) -> str:
+    if phase["delay_s"] is None:
+        return "n/a"
+    text = _ms(phase["delay_s"], phase["delay_sd_s"])
+    return flag(text + " (significant)", True) if phase["significant"] else text
+
+
+def mismatch_map_plot(maps):
+    """Standardized residual power (time block x frequency bin), one panel per sensor (rows) and map
+    (columns), on one logarithmic colour scale; significant cells outlined, the model's mode
+    frequencies dashed."""
+    channels = maps[0][2].channels
+    norm = LogNorm(MAP_BOTTOM, max(MAP_TOP, *(float(np.max(m.spectrogram.power)) for *_, m in maps)))
+    fig, axes = _panels(len(channels), len(maps), 2.8)
+    for col, (when, name, m) in enumerate(maps):
+        for c, sensor in enumerate(channels):
+            mesh = _map_panel(axes[c, col], m, c, norm)
+            axes[c, col].set_title(f"{when}: {name}, {sensor}", fontsize=9)
+    for ax in axes[-1]:
+        ax.set_xlabel("time [s]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("frequency [Hz]")
+    fig.colorbar(mesh, ax=axes, label="standardized residual power (1: noise)")
+    handles = [plt.Line2D([], [], color="w", ls="--", lw=0.8, label="model mode frequency"),
+               Rectangle((0, 0), 1, 1, fill=False, ec=OUTLINE, lw=1.5, label="cell above the noise")]
+    fig.legend(handles=handles, loc="outside lower center", ncols=2, fontsize=8, facecolor="0.6")
+    return fig
+
+
+def _panels(rows, columns, height):
+    """A grid of panels, a sensor per row and a map per column (half the width for one map)."""
+    return plt.subplots(rows, columns, figsize=(WIDTH * (0.5 + 0.5 * (columns > 1)), height * rows + 0.9),
+                        squeeze=False, sharex=True, sharey=True, layout="constrained")
+
+
+def _map_panel(ax, m, c, norm):
+    s = m.spectrogram
+    df = s.frequencies_hz[1] - s.frequencies_hz[0]
+    t_edges = np.append(s.block_times_s, s.block_times_s[-1] + s.block_duration_s)
+    f_edges = np.append(s.frequencies_hz - df / 2, s.frequencies_hz[-1] + df / 2)
+    power = np.clip(s.power[:, :, c].T, norm.vmin, norm.vmax)
+    mesh = ax.pcolormesh(t_edges, f_edges, power, norm=norm, cmap="magma", shading="flat")
+    for block, k in np.argwhere(s.significant[:, :, c]):
+        ax.add_patch(Rectangle((s.block_times_s[block], s.frequencies_hz[k] - df / 2), s.block_duration_s, df,
+                               fill=False, ec=OUTLINE, lw=1.5))
+    for row in m.modes:
+        ax.axhline(row["model_frequency_hz"], color="w", ls="--", lw=0.8)
+    ax.set_ylim(0, f_edges[-1])
+    return mesh
+
+
+def _phase_part(maps) -> str:
+    """The phase error against frequency and the delay, when any bin or mode has a phase."""
+    has_phase = any(np.isfinite(m.phase["phase_rad"]).any() or m.phase["delay_s"] is not None for *_, m in maps)
+    if not has_phase:
+        return "<h3>Phase and delay</h3><p>No bin has a coherent phase: no phase figure, no delay estimate.</p>"
+    caption = ("Phase of the cross-spectrum of the recording and the model's prediction per bin (points, +- 1 sd; "
+               "bins with coherent signal-to-noise of at least 10), each mode's phase error at the excitation "
+               "(diamonds: the delay is estimated from these, since a frequency error also tilts the per-bin "
+               "phase), and the phase -2 pi f tau of the estimated delay (line). Negative: the data lag the model.")
+    return ("<h3>Phase and delay</h3><p>" + "<br>".join(_delay_text(when, name, m.phase) for when, name, m in maps)
+            + "</p>" + figure(phase_plot(maps), "phase error against frequency", caption))
+
+
+def _delay_text(when, name, phase) -> str:
+    if phase["delay_s"] is None:
+        return (f"{when} ({esc(name)}): no delay estimate (no mode's phase at the excitation: too few cycles above "
+                f"the noise, or a free decay).")
+    linear = phase["linear_p_value"]
+    shape = "" if linear is None else f"; linearity of the per-mode phase errors p = {linear:.2g}"
+    verdict = "significant" if phase["significant"] else "not significant"
+    return (f"{when} ({esc(name)}): the data lag the model by {_ms(phase['delay_s'], phase['delay_sd_s'])} ms "
+            f"({verdict}, from {phase['n_modes']} modes{shape}).")
+
+
+def phase_plot(maps):
+    """Phase error (rad) against frequency, a sensor per row and a map per column: the cross-spectrum's
+    per bin, the modes' at the excitation and the line of the estimated delay."""
+    channels = maps[0][2].channels
+    fig, axes = _panels(len(channels), len(maps), 2.4)
+    for col, (when, name, m) in enumerate(maps):
+        for c, ax in enumerate(axes[:, col]):
+            _phase_panel(ax, m, c)
+            ax.set_title(f"{when}: {name}, {channels[c]}", fontsize=9)
+            ax.axhline(0, color="k", lw=0.5)
+            ax.grid(True, alpha=0.3)
+        axes[-1, col].set_xlabel("frequency [Hz]")
+    for ax in axes[:, 0]:
+        ax.set(ylabel="phase error [rad]", ylim=(-np.pi, np.pi))
+    handles = [plt.Line2D([], [], color="C0", marker=".", ls="", label="per bin (+- 1 sd)"),
+               plt.Line2D([], [], color="C3", marker="D", mec="k", ls="", label="mode, at the excitation"),
+               plt.Line2D([], [], color="C2", label="estimated delay"),
+               plt.Line2D([], [], color="k", ls="--", lw=0.6, label="model mode frequency")]
+    fig.legend(handles=handles, loc="outside lower center", ncols=4, fontsize=8, frameon=False)
+    return fig
+
+
+def _phase_panel(ax, m, c):
+    p = m.phase
+    f = np.asarray(p["frequency_hz"])
+    ax.errorbar(f, p["phase_rad"][:, c], p["phase_sd_rad"][:, c], fmt=".", ms=3, lw=0.6, color="C0", alpha=0.7)
+    rows = [r for r in m.modes if r["phase_error_rad"] is not None and r["sensor"] == m.channels[c]]
+    if rows:
+        ax.errorbar([r["model_frequency_hz"] for r in rows], [r["phase_error_rad"] for r in rows],
+                    [r["phase_error_sd_rad"] for r in rows], fmt="D", ms=6, color="C3", mec="k", zorder=3)
+    if p["delay_s"] is not None:
+        ax.plot(f, np.angle(np.exp(-2j * np.pi * f * p["delay_s"])), color="C2", lw=1.2)
+    for r in m.modes:
+        ax.axvline(r["model_frequency_hz"], color="k", ls="--", lw=0.6)
+
+
+# ---------------------------------------------------------------------------- per mode
+def _modes_section(maps) -> str:
+    names = "; ".join(f"{when}: {esc(name)}" for when, name, _ in maps)
+    return (h2("modes", SECTIONS) + f"<p>Maps: {names}.</p>"
+            + "<p>Each mode's frequency, damping ratio and amplitude (on the sensor where the mode is strongest), "
+              "decay shape and phase at the excitation, measured on the recording and on the model's replicated "
+              "recordings by the same estimators: the error is the recording's minus the replicates' median "
+              "&plusmn; its sd. Highlighted: errors beyond the noise (Bonferroni over all per-mode tests). "
+              "n/a: too few cycles above the noise after the impact to measure.</p>"
+            + per_mode_table(maps))
+
+
+def per_mode_table(maps) -> str:
+    """One row per mode of each map, the maps' rows of a mode next to each other."""
+    rows = sorted(((r["mode"], i, when, r) for i, (when, _, m) in enumerate(maps) for r in m.modes),
+                  key=lambda x: x[:2])
+    head = ["mode", "map", "sensor", "model f [Hz]"] + [v[0] for v in MODE_COLUMNS.values()] + ["finding"]
+    return table(head, [_mode_cells(k, when, r) for k, _, when, r in rows],
+                 text_columns=(1, 2, len(head) - 2, len(head) - 1))
+
+
+def _mode_cells(k, when, row) -> list[str]:
+    cells = [str(k), when, esc(row["sensor"]), f"{row['model_frequency_hz']:.5g}"]
+    for stat, (_, key, sd_key, fmt) in MODE_COLUMNS.items():
+        text = _decay(row) if key is None else _pm(row[key], row[sd_key], fmt)
+        cells.append(flag(text, stat in row["flags"]))
+    cells.append(esc(row["note"]) if row["flags"] else "&mdash;")
+    return cells
+
+
+def _pm(value, sd, fmt) -> str:
+    if value is None:
+        return "n/a"
+    return f"{value:+{fmt}} &plusmn; {number(sd, fmt)}"
+
+
+# ---------------------------------------------------------------------------- candidates and decisions
+def _candidates_section(d, summary) -> str:
+    chain = model_chain(d)
+    out = [h2("candidates", SECTIONS),
+           ("<p>Name: each catalogue effect's signature (the change it makes to the per-mode errors after the "
+            "model's own parameters re-adjust) fitted to the observed errors, ranked before anything is fitted "
+            "(docs/diagnosis.md).</p>")]
+    out += [_ranking_part(i + 1, chain[i][0].name, r) for i, r in enumerate(d.rankings)]
+    out.append("<h3>Augmented fits</h3>" + (trials_table(d) if d.trials else
+               "<p>No augmented model was fitted: the baseline's map flags no beam physics and the projected "
+               "mismatch is insignificant.</p>"))
+    out.append(_decision_rule(summary["decision_rule"]))
+    if summary["baseline_comparison"]:
+        out.append("<h3>Baseline chosen by evidence</h3>" + _comparison_table(summary["baseline_comparison"]))
+    return "".join(out)
+
+
+def _ranking_part(round_, model, ranking) -> str:
+    notes = "".join(f"<li>{esc(n)}</li>" for n in ranking.notes)
+    shown = [c for c in ranking.candidates if c.supported] or ranking.candidates[:1]
+    reasoning = "".join(f"<p>{esc(c.reasoning)}</p>" for c in shown if c.reasoning)
+    return (f"<h3>Round {round_}: signatures against {esc(model)}</h3><ul>{notes}</ul>"
+            + candidates_table(ranking)
+            + ("<p>Reasoning of the supported candidate(s):</p>" if ranking.best else
+               "<p>No candidate is supported; the top one's reasoning:</p>") + reasoning)
+
+
+def candidates_table(ranking) -> str:
+    """The signature screen's candidates, best first (the first highlighted when supported)."""
+    rows = [[esc(c.effect), esc(c.parameter), _value(c.value, c.unit), _interval(c.interval_90),
+             _interval(c.prior), f"{c.delta_chi2:.3g}", f"{100 * c.explained:.0f}%", f"{c.p_value:.2g}",
+             "yes" if c.supported else "no"] for c in ranking.candidates]
+    head = ["effect", "parameter", "value", "90% interval", "prior support", "&Delta;&chi;&sup2;", "explained",
+            "p-value", "supported"]
+    return table(head, rows, text_columns=2, highlight_first=ranking.best is not None)
+
+
+def trials_table(d) -> str:
+    """Every augmented model fitted, against the model it augments: evidence, map, decision."""
+    chain = model_chain(d)
+    rows = []
+    for t in d.trials:
+        parent, before = chain[t.round - 1]
+        rows.append([str(t.round), esc(t.result.name), esc(parent.name),
+                     flag(f"{t.log_bayes_factor:.1f} &plusmn; {t.log_bayes_factor_sd:.1f}", not t.decisive),
+                     f"{before.rms_standardized_residual:.3f} &rarr; {t.mismatch.rms_standardized_residual:.3f}",
+                     f"{flags(before)} &rarr; {flags(t.mismatch)}", _yes(t.decisive), _yes(t.improved),
+                     "<b>added</b>" if t.added else "no"])
+    head = ["round", "model", "against", "ln B [nats]", "RMS standardized residual", "flags", "decisive",
+            "map improved", "added"]
+    return table(head, rows, text_columns=3)
+
+
+def _decision_rule(rule) -> str:
+    return (f"<p>Decision rule: an effect is added when its log Bayes factor against the model it augments "
+            f"exceeds {rule['log_bayes_factor_above']:g} nats by more than {rule['by_standard_errors']:g} "
+            f"standard errors (decisive) and the map improves ({esc(rule['map_must_improve'])}); of several, the "
+            f"one with the largest log Bayes factor. The map's family-wise false-alarm level is "
+            f"{rule['alpha']:g}.</p>")
+
+
+def _comparison_table(models) -> str:
+    rows = [[esc(m), f"{v['log_evidence']:.2f}", f"{v['probability']:.3g}"]
+            for m, v in sorted(models.items(), key=lambda kv: -kv[1]["log_evidence"])]
+    return table(["model", "log Z [nats]", "probability"], rows, highlight_first=True)
+
+
+# ---------------------------------------------------------------------------- the added effect
+def _effect_section(d) -> str:
+    out = [h2("effect", SECTIONS)]
+    added = [t for t in d.trials if t.added]
+    if not added:
+        out.append("<p>No effect was added.</p>")
+    for t in added:
+        signature = _signature(d, t)
+        caption = ("Posterior of the added effect's parameter in the augmented model (all SMC particles): median "
+                   "(solid) and 90% interval (shaded), against the signature screen's value and 90% interval "
+                   "(marker and bar), estimated before the model was fitted.")
+        out.append(f"<h3>{esc(t.effect)} (round {t.round}, {esc(t.result.name)})</h3>"
+                   + figure(effect_posterior_plot(t, signature), f"posterior of {t.effect}", caption))
+    if d.trials:
+        out.append("<h3>Effect parameters of every augmented fit</h3>" + effect_table(d))
+    return "".join(out)
+
+
+def _signature(d, trial):
+    """The signature screen's candidate for the trial's effect in its round, or None."""
+    return next((c for c in d.rankings[trial.round - 1].candidates if c.effect == trial.effect), None)
+
+
+def effect_posterior_plot(trial, signature):
+    """Histogram of each of the effect's parameters over the posterior draws, its median and 90%
+    interval, and the signature screen's value and 90% interval for comparison."""
+    summary = effect_parameters(trial)
+    names = list(trial.result.problem.posterior.names)
+    fig, axes = plt.subplots(len(summary), 1, figsize=(WIDTH * 0.8, 3.0 * len(summary)), squeeze=False,
+                             layout="constrained")
+    values = trial.result.values()
+    for ax, (name, q) in zip(axes[:, 0], summary.items()):
+        ax.hist(values[..., names.index(name)].ravel(), bins=30, density=True, color="C0", alpha=0.6,
+                label="posterior draws")
+        ax.axvspan(q["q05"], q["q95"], color="C0", alpha=0.15, label="posterior 90%")
+        ax.axvline(q["q50"], color="C0", lw=1.5, label=f"posterior median {q['q50']:.4g}")
+        if signature is not None and signature.parameter == name and signature.value is not None:
+            _mark_signature(ax, signature)
+        ax.set(xlabel=f"{name} [{q['unit']}]" if q["unit"] else name, ylabel="density")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1))
+    return fig
+
+
+def _mark_signature(ax, c):
+    y = 0.92 * ax.get_ylim()[1]
+    lo, hi = c.interval_90 if c.interval_90 else (c.value, c.value)
+    ax.errorbar([c.value], [y], xerr=[[c.value - lo], [hi - c.value]], fmt="v", color="C3", ms=8, capsize=4,
+                label=f"signature screen {c.value:.4g} (90%)")
+
+
+def effect_table(d) -> str:
+    """Posterior summary of each augmented model's effect parameters, with the screen's estimate."""
+    rows = []
+    for t in d.trials:
+        c = _signature(d, t)
+        for name, q in effect_parameters(t).items():
+            screen = c is not None and c.parameter == name
+            rows.append([esc(t.effect), esc(name), esc(q["unit"]), f"{q['q50']:.4g}",
+                         _interval([q["q05"], q["q95"]]), f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}",
+                         flag(f"{q['r_hat']:.3f}", round(q["r_hat"], 3) > RHAT_FLAG),
+                         _value(c.value, "") if screen else "n/a", _interval(c.interval_90) if screen else "n/a",
+                         "<b>added</b>" if t.added else "no"])
+    head = ["effect", "parameter", "unit", "posterior median", "90% interval", "mean &plusmn; sd", "R-hat",
+            "signature screen", "screen 90% interval", "added"]
+    return table(head, rows, text_columns=3)
+
+
+# ---------------------------------------------------------------------------- formatting
+def _value(value, unit) -> str:
+    return "n/a" if value is None else f"{value:.4g}" + (f" {esc(unit)}" if unit else "")
+
+
+def _interval(interval) -> str:
+    return "n/a" if not interval else f"{interval[0]:.4g} to {interval[1]:.4g}"
+
+
+def _ms(value, sd) -> str:
+    """A delay (s) and its sd in ms, the value to the sd's second significant digit."""
+    digits = max(0, 1 - int(np.floor(np.log10(sd * 1e3)))) if sd and sd > 0 else 3
+    return f"{value * 1e3:.{digits}f} &plusmn; {sd * 1e3:.2g}" if sd else f"{value * 1e3:.3g}"
+
+
+def _decay(row) -> str:
+    """The decay shape in words, n/a where the curvature could not be measured."""
+    return "n/a" if row["p_values"]["curvature"] is None else esc(row["decay"])
+
+
+def _yes(value) -> str:
+    return "yes" if value else "no"

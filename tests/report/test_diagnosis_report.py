@@ -1,0 +1,131 @@
+"""The diagnosis report: one self-contained HTML file with the maps before and after, the per-mode
+table, the decisions and the added effect's posterior, whose every figure loads in a browser.
+
+The shared cheap diagnoses (tests/diagnosis_cases.py) feed it: a concealed root spring (found and
+added) and a null recording (nothing flagged, nothing fitted). Headless Chromium renders each
+report and the report's own script counts the images that decoded.
+"""
+import html
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from bayesbeam.diagnose import effect_parameters, paragraph
+from bayesbeam.report.diagnosis import SECTIONS, write_report
+from tests.diagnosis_cases import diagnosed
+
+
+@pytest.fixture(scope="module", params=["root_compliance", None], ids=["root_compliance", "null"])
+def report(request, tmp_path_factory):
+    """(path of the report, its HTML, the Diagnosis)."""
+    d = diagnosed(request.param)
+    path = write_report(d, tmp_path_factory.mktemp("diagnosis") / "report.html")
+    return path, path.read_text(encoding="utf-8"), d
+
+
+def section(text, anchor) -> str:
+    """The HTML of one section: from its heading to the next one's."""
+    start = text.index(f'<h2 id="{anchor}">')
+    end = text.find("<h2 ", start + 1)
+    return text[start:] if end < 0 else text[start:end]
+
+
+def body_rows(table_html) -> list[str]:
+    body = table_html[table_html.index("<tbody>"):table_html.index("</tbody>")]
+    return re.findall(r"<tr[^>]*>(.*?)</tr>", body)
+
+
+def alts(text) -> list[str]:
+    return re.findall(r'<img alt="([^"]*)"', text)
+
+
+def test_report_is_one_self_contained_file(report):
+    path, text, _ = report
+    assert [p.name for p in path.parent.iterdir()] == ["report.html"]      # no temporary file left
+    # nothing fetched from elsewhere: no scheme or protocol-relative address in src, href or CSS url()
+    assert not re.search(r"""(?:src|href)\s*=\s*["']?\s*(?:[a-z][a-z0-9+.-]*:)?//""", text, re.IGNORECASE)
+    assert not re.search(r"url\(", text) and "<link" not in text
+    sources = re.findall(r'<img [^>]*src="([^"]*)"', text)
+    assert sources and all(s.startswith("data:image/png;base64,") for s in sources)
+
+
+def test_every_section_and_the_plain_paragraph_are_in_the_report(report):
+    _, text, d = report
+    for anchor, title in SECTIONS:
+        assert f'<h2 id="{anchor}">{title}</h2>' in text
+    assert f'<p class="verdict">{html.escape(paragraph(d))}</p>' in section(text, "summary")
+    header = text[:text.index("<nav>")]
+    assert f"<td>{d.final.name}</td>" in header.replace(' class="text"', "")
+    assert ("root_compliance" in header) == bool(d.added)
+
+
+def test_maps_before_and_after_only_when_an_effect_was_added(report):
+    _, text, d = report
+    maps = [a for a in alts(section(text, "map")) if a.startswith("mismatch map")]
+    if d.added:
+        assert maps == ["mismatch map before (q1) and after (q1+root_compliance)"]
+        assert "Regions of the after map (q1+root_compliance)" in text
+    else:
+        assert maps == ["mismatch map before (q1)"]
+        assert "Nothing was added" in section(text, "map") and "Regions of the after map" not in text
+    assert "phase error against frequency" in alts(section(text, "map"))
+
+
+def test_per_mode_table_has_a_row_per_mode_of_each_map_and_highlights_the_flags(report):
+    _, text, d = report
+    maps = [d.baseline_mismatch] + ([d.final_mismatch] if d.added else [])
+    rows = body_rows(section(text, "modes"))
+    assert len(rows) == sum(len(m.modes) for m in maps)
+    flagged = [r for r in rows if 'class="bad"' in r]
+    assert sum(r.count('class="bad"') for r in rows) == sum(len(row["flags"]) for m in maps for row in m.modes)
+    if d.added:       # the root spring shows in the baseline's modes and is gone after
+        assert flagged and all(re.search(r'<td class="text">before</td>', r) for r in flagged)
+    else:
+        assert not flagged
+
+
+def test_candidates_and_decisions(report):
+    _, text, d = report
+    part = section(text, "candidates")
+    for ranking in d.rankings:
+        for c in ranking.candidates:
+            assert f'<td class="text">{c.effect}</td><td class="text">{c.parameter}</td>' in part
+    assert "Decision rule: an effect is added when its log Bayes factor" in part and "exceeds 5 nats" in part
+    if d.trials:
+        trials = body_rows(part[part.index("<h3>Augmented fits</h3>"):])
+        assert len(trials) == len(d.trials)
+        assert "<b>added</b>" in trials[0] and f"{d.trials[0].log_bayes_factor:.1f} &plusmn;" in trials[0]
+    else:
+        assert "No augmented model was fitted" in part
+
+
+def test_added_effect_posterior_names_k_theta(report):
+    _, text, d = report
+    part = section(text, "effect")
+    if not d.added:
+        assert "No effect was added." in part and not alts(part)
+        return
+    assert alts(part) == ["posterior of root_compliance"]
+    q = effect_parameters(d.trials[0])["k_theta"]
+    row = body_rows(part)[0]
+    assert "k_theta" in row and f"{q['q50']:.4g}" in row and f"{q['q05']:.4g} to {q['q95']:.4g}" in row
+    screen = d.rankings[0].candidates[0]
+    assert screen.effect == "root_compliance" and f"{screen.value:.4g}" in row
+
+
+def test_every_figure_loads_in_headless_chromium(report, tmp_path):
+    path, text, _ = report
+    chromium = shutil.which("chromium")
+    if chromium is None:
+        pytest.fail("Chromium is not installed; install it with `apt-get install chromium` "
+                    "(.ci/run installs it from Debian's packages)")
+    command = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+               "--disable-background-networking", "--disable-component-update", "--disable-sync",
+               f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000", "--dump-dom",
+               path.resolve().as_uri()]
+    dom = subprocess.run(command, capture_output=True, text=True, timeout=120, check=True).stdout
+    n = text.count("<img ")
+    assert n >= 2         # the map and the phase figure at least
+    assert f'data-figures-loaded="{n}/{n}"' in dom
