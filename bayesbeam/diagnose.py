@@ -260,7 +260,7 @@ def paragraph(d: Diagnosis) -> str:
     base, bmap, fmap = d.baseline.name, d.baseline_mismatch, d.final_mismatch
     text = [(f"Baseline {base}: RMS standardized residual {bmap.rms_standardized_residual:.2f} "
              f"(1 when the model explains everything but noise), {flags(bmap)} flag(s) in the mismatch map.")]
-    lines = [r for r in bmap.regions if r.get("beam_physics") is False]
+    lines = [r for r in fmap.regions if r.get("beam_physics") is False]
     if lines:
         text.append("Not beam physics (not fitted): " + "; ".join(
             f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz on {r['sensor']}: {r['note']}" for r in lines) + ".")
@@ -268,12 +268,12 @@ def paragraph(d: Diagnosis) -> str:
         text.append("Nothing the damping model leaves out shows above the noise: no effect was added.")
         return " ".join(text)
     for t in d.trials:
-        params = ", ".join(f"{k} = {v['mean']:.3g} {v['unit']} (90 %: {v['q05']:.3g} to {v['q95']:.3g})"
+        params = ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
                            for k, v in effect_parameters(t).items())
         verdict = "added" if t.added else "not added: " + (
             "the evidence is not decisive" if not t.decisive else "the mismatch map does not improve")
         text.append(f"Round {t.round}, {t.effect}: log Bayes factor {t.log_bayes_factor:.1f} +- "
-                    f"{t.log_bayes_factor_sd:.1f} nats against {_parent(t, d)}, RMS standardized residual "
+                    f"{t.log_bayes_factor_sd:.2g} nats against {_parent(t, d)}, RMS standardized residual "
                     f"{t.mismatch.rms_standardized_residual:.2f}, {flags(t.mismatch)} flag(s); {params}: {verdict}.")
     if d.added:
         text.append(f"Missing physics found: {' and '.join(d.added)}. The fit improved from RMS "

@@ -21,6 +21,7 @@ COMMANDS = {
     "simulate": "simulate",
     "fit": "fit",
     "compare": "compare",
+    "diagnose": "diagnose",
     "batch": "batch",
     "ema": "ema",
     "era": "era",

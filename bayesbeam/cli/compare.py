@@ -21,6 +21,11 @@ def add_comparison_options(p, default_models) -> None:
     p.add_argument("--models", default=",".join(default_models),
                    help=f"comma-separated presets or '+'-joined mechanisms (default {','.join(default_models)})")
     p.add_argument("--effect", action="append", metavar="EFFECT", help="add a missing-physics effect to every model")
+    add_evidence_options(p)
+
+
+def add_evidence_options(p) -> None:
+    """Fit window, band and evidence options (shared with ``bayesbeam diagnose``)."""
     p.add_argument("--config", help="fit file (TOML): [fit] settings and [prior.NAME] tables")
     p.add_argument("--n-intervals", type=int, help="fix the spline intervals N (default: automatic)")
     p.add_argument("--start", type=float, help="start of the fitted window (s)")
@@ -50,18 +55,27 @@ def comparison_config(args):
         raise UsageError(f"--repeats: {exc}") from None
 
 
-def model_list(text: str) -> list[str]:
-    from bayesbeam.physics.mechanisms import resolve
-
+def model_list(text: str, option: str = "--models") -> list[str]:
+    """Model names from a comma-separated list, each checked (presets, mechanisms, effects)."""
     models = [m.strip() for m in text.split(",") if m.strip()]
     if not models:
-        raise UsageError("--models is empty: give e.g. --models q1,q2,q3")
+        raise UsageError(f"{option} is empty: give e.g. {option} q1,q2,q3")
     for m in models:
-        try:
-            resolve(m)
-        except ValueError as exc:
-            raise UsageError(f"--models: {exc}") from None
+        check_model(m, option)
     return models
+
+
+def check_model(spec: str, option: str) -> None:
+    """UsageError naming ``option`` unless ``spec`` names known mechanisms (and effects)."""
+    from bayesbeam.model import split_model
+    from bayesbeam.physics import effects, mechanisms
+
+    mech, eff = split_model(spec)
+    try:
+        mechanisms.resolve(mech)
+        effects.resolve(eff)
+    except ValueError as exc:
+        raise UsageError(f"{option} {spec}: {exc}") from None
 
 
 def run(args) -> int:

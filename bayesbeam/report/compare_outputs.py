@@ -39,12 +39,12 @@ def inference_data(result):
 def write_comparison(results: dict, summary: dict, out_dir) -> list[Path]:
     out = Path(out_dir)
     (out / "posteriors").mkdir(parents=True, exist_ok=True)
-    written = [write_netcdf(inference_data(r), out / "posteriors" / f"{_file_name(m)}.nc") for m, r in results.items()]
+    written = [write_netcdf(inference_data(r), out / "posteriors" / f"{posterior_file_name(m)}.nc") for m, r in results.items()]
     written.append(save(mode_plot(summary, model_colors(summary)), out / "damping_per_mode.png"))
     written.append(write_report(results, summary, out / "report.html"))
     written.append(write_json(summary, out / "comparison.json"))
     return written
 
 
-def _file_name(model: str) -> str:
+def posterior_file_name(model: str) -> str:
     return model.replace("+", "_plus_")

@@ -1,0 +1,20 @@
+"""Write a diagnosis's outputs: diagnosis.json, report.html and posteriors/<model>.nc (baseline,
+every augmented model tried), each under a temporary name renamed into place."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from bayesbeam.report.compare_outputs import inference_data, posterior_file_name
+from bayesbeam.report.diagnosis import write_report
+from bayesbeam.report.fit_outputs import write_json, write_netcdf
+
+
+def write_diagnosis(diagnosis, out_dir) -> list[Path]:
+    out = Path(out_dir)
+    (out / "posteriors").mkdir(parents=True, exist_ok=True)
+    results = {r.name: r for r in (diagnosis.baseline, *(t.result for t in diagnosis.trials))}
+    written = [write_netcdf(inference_data(r), out / "posteriors" / f"{posterior_file_name(m)}.nc")
+               for m, r in results.items()]
+    written.append(write_report(diagnosis, out / "report.html"))
+    written.append(write_json(diagnosis.to_dict(), out / "diagnosis.json"))
+    return written
