@@ -386,7 +386,8 @@ def _interval(refined, x, c_min, sign, support, level) -> list:
     """chi2 <= min + level from the parabola through x +- 0.1 (log value), within the support."""
     h = 0.1
     curvature = (refined(x + h) + refined(x - h) - 2 * c_min) / (2 * h * h)
-    half = np.sqrt(level / curvature) if curvature > 0 else np.inf
+    # a flat chi2 gives the whole support; the log-width is capped so exp() cannot overflow
+    half = min(np.sqrt(level / curvature), 700.0 - abs(x)) if curvature > 0 else 700.0 - abs(x)
     ends = sorted(float(sign * np.exp(x + d)) for d in (-half, half))
     return [max(ends[0], support[0]), min(ends[1], support[1])]
 

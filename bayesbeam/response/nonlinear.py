@@ -901,7 +901,9 @@ class _Drag:
         # growth of E^-l over a block stays below e^10 (rounding ~1e-11); a prefix scan elsewhere
         self.cumsum = np.abs(lam.real * h) * (_DRAG_BLOCK + 2) <= 10.0
         self.scan_modes = np.flatnonzero(~self.cumsum)
-        self.einv = np.exp(-np.multiply.outer(np.arange(1, _DRAG_BLOCK + 2), lam * h)) * self.cumsum
+        # (the scanned modes' columns are zero, and not exp(+large) * 0 = nan)
+        self.einv = np.exp(-np.multiply.outer(np.arange(1, _DRAG_BLOCK + 2), np.where(self.cumsum, lam * h, 0.0)))
+        self.einv *= self.cumsum
         # the linear response's velocities at the Gauss points and nodes
         self.vlin = p.fine(p.linear_spectrum(np.eye(n), order=1)) @ rows.T if p.forced else None
 
