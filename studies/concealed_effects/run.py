@@ -1,0 +1,145 @@
+"""Run ``bayesbeam diagnose`` blind on every recording of the study and tabulate the results.
+
+    OPENBLAS_NUM_THREADS=1 python studies/concealed_effects/run.py            # resume: skips done ones
+    OPENBLAS_NUM_THREADS=1 python studies/concealed_effects/run.py --tables   # only rebuild results.md
+
+Each recording (``recordings/<beam>_<effect>/``, made by ``generate.py``) is diagnosed by exactly
+the command a user would type, told only the damping model that generated it, never the effect:
+
+    bayesbeam diagnose recordings/<name> --model <q1|q3> --max-frequency 150 --executor serial
+                       --out out/<name>
+
+Recordings run two at a time (one per core). ``results.md`` is written from the diagnosis.json
+files and each recording's truth.json, so every number in the README can be rebuilt.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+RECORDINGS, OUT = HERE / "recordings", HERE / "out"
+#: top of the fitted band: modes 1-4 of the paper beam, 1-3 of the aluminium strip
+MAX_FREQUENCY = 150.0
+
+
+def command(name: str, truth: dict) -> list[str]:
+    return ["diagnose", str(RECORDINGS / name), "--model", truth["damping_model"], "--max-frequency",
+            str(MAX_FREQUENCY), "--executor", "serial", "--quiet", "--out", str(OUT / name)]
+
+
+def run_one(name: str) -> tuple[str, float, int]:
+    """Diagnose one recording in this process; (name, seconds, exit status)."""
+    import contextlib
+    import io
+
+    from bayesbeam.cli import main
+
+    truth = json.loads((RECORDINGS / name / "truth.json").read_text())
+    started = time.perf_counter()
+    try:
+        with contextlib.redirect_stdout(io.StringIO()):
+            status = main(command(name, truth))
+    except Exception as exc:  # noqa: BLE001 - one failed recording must not stop the study: say which and why
+        print(f"{name}: {type(exc).__name__}: {exc}", file=sys.stderr, flush=True)
+        status = 1
+    return name, time.perf_counter() - started, status
+
+
+def pending(force: bool) -> list[str]:
+    names = sorted(p.name for p in RECORDINGS.iterdir() if (p / "truth.json").exists())
+    return [n for n in names if force or not (OUT / n / "diagnosis.json").exists()]
+
+
+# ---------------------------------------------------------------------------- tables
+def rows() -> list[dict]:
+    """One row per diagnosed recording: truth, what was found, estimate, evidence, residuals."""
+    out = []
+    for truth_path in sorted(RECORDINGS.glob("*/truth.json")):
+        name = truth_path.parent.name
+        result = OUT / name / "diagnosis.json"
+        if not result.exists():
+            continue
+        truth, d = json.loads(truth_path.read_text()), json.loads(result.read_text())
+        effect = truth["effect"]
+        (parameter, value), = truth["effect_parameters"].items() if effect else ((None, None),)
+        added = next((c for c in d["candidates"] if c["added"] and c["effect"] == effect), None)
+        estimate = added["parameters"][parameter] if added else None
+        out.append({"name": name, "beam": truth["beam"], "model": truth["damping_model"], "effect": effect,
+                    "parameter": parameter, "truth": value, "added": d["added"], "estimate": estimate,
+                    "covered": bool(estimate and estimate["q05"] <= value <= estimate["q95"]),
+                    "lnB": (added["delta_log_evidence"], added["delta_log_evidence_sd"]) if added else None,
+                    "tried": [(c["effect"], c["delta_log_evidence"]) for c in d["candidates"]],
+                    "rms": (d["baseline"]["rms_standardized_residual"], d["final"]["rms_standardized_residual"]),
+                    "flags": (d["baseline"]["flags"], d["final"]["flags"]), "unexplained": d["unexplained"],
+                    "seconds": d["seconds"]})
+    return out
+
+
+def effect_table(found: list[dict]) -> str:
+    head = ("| recording | effect (truth) | added | estimate, mean [90 %] | truth inside | ln B (sd) | "
+            "RMS std. residual before -> after | flags before -> after | s |\n|" + "---|" * 9)
+    lines = [head]
+    for r in found:
+        est = r["estimate"]
+        est_text = f"{est['mean']:.4g} [{est['q05']:.4g}, {est['q95']:.4g}] {est['unit']}" if est else "-"
+        lnb = f"{r['lnB'][0]:.1f} ({r['lnB'][1]:.1f})" if r["lnB"] else "-"
+        lines.append(f"| {r['name']} | {r['effect']} {r['parameter']} = {r['truth']:.4g} | "
+                     f"{', '.join(r['added']) or 'nothing'} | {est_text} | {'yes' if r['covered'] else 'NO'} | "
+                     f"{lnb} | {r['rms'][0]:.2f} -> {r['rms'][1]:.2f} | {r['flags'][0]} -> {r['flags'][1]} | "
+                     f"{r['seconds']:.0f} |")
+    return "\n".join(lines)
+
+
+def null_table(nulls: list[dict]) -> str:
+    lines = ["| recording | added | candidates tried (ln B) | RMS std. residual | flags | unexplained | s |",
+             "|" + "---|" * 7]
+    for r in nulls:
+        tried = ", ".join(f"{e} ({b:.1f})" for e, b in r["tried"]) or "none (nothing flagged)"
+        lines.append(f"| {r['name']} | {', '.join(r['added']) or 'nothing'} | {tried} | {r['rms'][0]:.2f} | "
+                     f"{r['flags'][0]} | {r['unexplained']} | {r['seconds']:.0f} |")
+    return "\n".join(lines)
+
+
+def write_tables() -> Path:
+    from bayesbeam.io.atomic import write_text
+
+    all_rows = rows()
+    found = [r for r in all_rows if r["effect"]]
+    nulls = [r for r in all_rows if not r["effect"]]
+    named = sum(r["added"] == [r["effect"]] for r in found)
+    covered = sum(r["covered"] for r in found)
+    alarms = sum(bool(r["added"]) for r in nulls)
+    text = (f"# Concealed effects: results\n\nWritten by `python studies/concealed_effects/run.py --tables` from "
+            f"`out/*/diagnosis.json` and `recordings/*/truth.json`.\n\n"
+            f"**Named correctly (exactly the concealed effect added): {named} of {len(found)}. "
+            f"Truth inside the 90 % interval: {covered} of {len(found)}. "
+            f"False alarms (an effect added to a null recording): {alarms} of {len(nulls)}.**\n\n"
+            f"## Recordings with a concealed effect\n\n{effect_table(found)}\n\n"
+            f"## Null recordings\n\n{null_table(nulls)}\n")
+    return write_text(HERE / "results.md", text)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--force", action="store_true", help="rerun recordings already diagnosed")
+    parser.add_argument("--tables", action="store_true", help="only rebuild results.md")
+    parser.add_argument("--processes", type=int, default=2, help="recordings diagnosed at once (default 2)")
+    parser.add_argument("names", nargs="*", help="only these recordings")
+    args = parser.parse_args(argv)
+    if not args.tables:
+        todo = [n for n in pending(args.force) if not args.names or n in args.names]
+        print(f"diagnosing {len(todo)} recording(s): {', '.join(todo)}", flush=True)
+        with ProcessPoolExecutor(args.processes) as pool:
+            for name, seconds, status in pool.map(run_one, todo):
+                print(f"{name}: exit {status}, {seconds:.0f} s", flush=True)
+    print(f"wrote {write_tables()}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
