@@ -8,7 +8,8 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
 3. **Name** (:func:`bayesbeam.checks.signatures.rank_effects`): each catalogue effect's signature
    against the mismatch, ranked before anything expensive is fitted.
 4. **Model.** The supported candidates (at least the top-ranked one, at most
-   ``candidates``) are added to the current model one at a time and fitted like it (own
+   ``candidates``), and drag or friction when the map flags damping that falls or rises as the
+   vibration decays, are added to the current model one at a time and fitted like it (own
    discretisation check, SMC evidence from repeated runs). A candidate is **added** when
 
    * its log Bayes factor against the current model exceeds :data:`DECISIVE` = 5 nats
@@ -130,7 +131,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         if not beam_regions(mismatch) and ranking.p_value >= ALPHA:
             say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")
             break
-        chosen = _candidates(ranking, config.candidates)
+        chosen = _candidates(ranking, mismatch, config.candidates)
         say(f"round {round_}: fitting {', '.join(current.name + '+' + c.effect for c in chosen)}")
         fitted = _fit_augmented(rec, current, chosen, config, executor, log)
         round_trials = [_trial(round_, current, mismatch, f, rng, config) for f in fitted]
@@ -156,10 +157,24 @@ def _draws(result) -> np.ndarray:
     return result.draws.reshape(-1, result.problem.posterior.ndim)
 
 
-def _candidates(ranking, n: int) -> list:
-    """The supported candidates in ranking order, at least the top one, at most ``n``."""
+#: the map's decay-shape finding -> the catalogue effect that makes damping amplitude-dependent so
+DECAY_SHAPE = {"damping falls as the vibration decays": "quadratic_drag",
+               "damping rises as the vibration decays": "dry_friction"}
+
+
+def _candidates(ranking, mismatch: Mismatch, n: int) -> list:
+    """The supported candidates in ranking order (at least the top one, at most ``n``), and the
+    effect the map's decay shape points to.
+
+    Only drag and friction make the damping depend on amplitude, so a flagged decay shape is
+    direct evidence for one of them. Their signature screen is linearised about zero, and at
+    realistic sizes they are far from linear (10 % of the response's RMS of tip friction more
+    than doubles mode 1's damping): the screen can miss them, so the map's finding adds them.
+    """
     supported = [c for c in ranking.candidates if c.supported]
-    return (supported or ranking.candidates[:1])[:n]
+    chosen = (supported or ranking.candidates[:1])[:n]
+    shapes = {DECAY_SHAPE[k] for row in mismatch.modes for k in DECAY_SHAPE if k in row["decay"]}
+    return chosen + [c for c in ranking.candidates if c.effect in shapes and c not in chosen]
 
 
 def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log) -> list:

@@ -80,3 +80,20 @@ def test_the_map_improves_only_if_the_residual_falls_and_flags_do_not_grow():
     assert not improved(before, _map(1.3))                       # residual did not fall
     assert not improved(before, _map(1.1, cells=6))              # fewer misfit overall, more flags
     assert not improved(before, _map(1.1, cells=4, mode_flags=["frequency"], delay=True))
+
+
+def test_a_flagged_decay_shape_puts_drag_or_friction_among_the_fitted_candidates():
+    from bayesbeam.diagnose import _candidates
+
+    def cand(effect, supported):
+        return SimpleNamespace(effect=effect, supported=supported)
+
+    ranking = SimpleNamespace(candidates=[cand("axial_load", True), cand("sensor_mass", True),
+                                          cand("root_compliance", True), cand("quadratic_drag", False),
+                                          cand("dry_friction", False)])
+    rises = SimpleNamespace(modes=[{"decay": "amplitude-dependent: damping rises as the vibration decays"}])
+    plain = SimpleNamespace(modes=[{"decay": "exponential, like the model's"}])
+    assert [c.effect for c in _candidates(ranking, plain, 2)] == ["axial_load", "sensor_mass"]
+    assert [c.effect for c in _candidates(ranking, rises, 2)] == ["axial_load", "sensor_mass", "dry_friction"]
+    ranking.candidates = [cand("quadratic_drag", False), cand("dry_friction", False)]
+    assert [c.effect for c in _candidates(ranking, rises, 2)] == ["quadratic_drag", "dry_friction"]

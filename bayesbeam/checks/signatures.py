@@ -325,7 +325,7 @@ class _Signature:
             theta[: len(beta)] += beta
         try:
             return self.evaluate({**self.posterior.split(theta)[0], self.parameter: value}) - self.base
-        except (ValueError, np.linalg.LinAlgError, FloatingPointError):
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError, RuntimeError):   # e.g. drag's Newton
             return None
 
     def refit(self, value):
