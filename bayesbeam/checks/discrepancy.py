@@ -603,6 +603,11 @@ def _line_note(f_line, c, lik, s: Setting, params) -> str:
     proj = s.projection
     ratio = line_persistence(lik.model.recording.signals[:, c] - s.reference[:, c], proj, f_line)
     f = lik.model.natural_frequencies(params)
+    near = int(np.argmin(np.abs(f - f_line)))
+    if abs(f[near] - f_line) <= max(MODE_TOLERANCE * f[near], 2 * proj.fs / proj.block):
+        # a mode above 0.9 of the band's top is fitted but has no per-mode statistics
+        return (f"residual at {f_line:.4g} Hz, at model mode {near + 1} ({f[near]:.4g} Hz) near the top of the "
+                f"band, where the per-mode statistics are not computed: that mode's misfit")
     zeta = np.interp(f_line, f, lik.model.modal_damping_ratios(params))
     beam = float(np.exp(-2 * np.pi * f_line * zeta * 2 / 3 * (proj.i1 - proj.i0) / proj.fs))
     text = f"residual line at {f_line:.4g} Hz, away from every model mode"
