@@ -132,7 +132,8 @@ def main(argv=None) -> int:
     parser.add_argument("names", nargs="*", help="only these recordings")
     args = parser.parse_args(argv)
     if not args.tables:
-        todo = [n for n in pending(args.force) if not args.names or n in args.names]
+        todo = pending(args.force)
+        todo = [n for n in args.names if n in todo] if args.names else todo      # in the order given
         print(f"diagnosing {len(todo)} recording(s): {', '.join(todo)}", flush=True)
         with ProcessPoolExecutor(args.processes) as pool:
             for name, seconds, status in pool.map(run_one, todo):
