@@ -39,7 +39,6 @@ import numpy as np
 from bayesbeam.checks.discrepancy import ALPHA, Mismatch, locate
 from bayesbeam.checks.signatures import rank_effects
 from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
-from bayesbeam.model import split_model
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
 DECISIVE = 5.0
@@ -103,6 +102,15 @@ class Diagnosis:
         """The final model still misses beam physics somewhere (see :meth:`remaining`)."""
         return bool(self.remaining())
 
+    def chain(self) -> list[tuple[object, Mismatch]]:
+        """(ModelResult, Mismatch) of the baseline, then of the model after each added effect:
+        round r ranked, and augmented, entry r - 1."""
+        return [(self.baseline, self.baseline_mismatch)] + [(t.result, t.mismatch) for t in self.trials if t.added]
+
+    def signature(self, trial: Trial):
+        """The signature screen's candidate for the trial's effect in its round, or None."""
+        return next((c for c in self.rankings[trial.round - 1].candidates if c.effect == trial.effect), None)
+
     def to_dict(self) -> dict:
         """diagnosis.json (the issue's layout, plus the maps, rankings and decisions in full)."""
         return summarise(self)
@@ -134,7 +142,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         chosen = _candidates(ranking, mismatch, config.candidates)
         say(f"round {round_}: fitting {', '.join(current.name + '+' + c.effect for c in chosen)}")
         fitted = _fit_augmented(rec, current, chosen, config, executor, log)
-        round_trials = [_trial(round_, current, mismatch, f, rng, config) for f in fitted]
+        round_trials = [_trial(round_, c.effect, current, mismatch, f, rng, config) for c, f in zip(chosen, fitted)]
         trials += round_trials
         winners = [t for t in round_trials if t.decisive and t.improved]
         if not winners:
@@ -192,11 +200,10 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
     return [results[s] for s in specs]
 
 
-def _trial(round_, current, mismatch, result, rng, config) -> Trial:
+def _trial(round_, effect, current, mismatch, result, rng, config) -> Trial:
     new_map = _locate(result, rng, config)
     lbf = result.evidence.log_z - current.evidence.log_z
     sd = float(np.hypot(result.evidence.log_z_sd, current.evidence.log_z_sd))
-    effect = split_model(result.name)[1][-1]
     return Trial(round_, effect, result, new_map, float(lbf), sd, decisive=lbf - DECISIVE_SD * sd > DECISIVE,
                  improved=improved(mismatch, new_map))
 
@@ -223,17 +230,18 @@ def summarise(d: Diagnosis) -> dict:
     """diagnosis.json: the issue's keys first, then the maps, rankings and decision rule in full."""
     base, final = d.baseline, d.final
     rec = base.problem.model.recording
+    candidates = [_trial_entry(t, d.signature(t)) for t in d.trials]
     return {
         "recording": str(rec.source) if rec.source else None,
         "baseline": _model_entry(base, d.baseline_mismatch),
         "mismatch": d.baseline_mismatch.regions,
-        "candidates": [_trial_entry(t, d.rankings) for t in d.trials],
+        "candidates": candidates,
         "added": d.added,
         "unexplained": d.unexplained,
         "unexplained_regions": d.remaining(),
         "not_beam_physics": [r for r in d.final_mismatch.regions if r.get("beam_physics") is False],
         "final": {**_model_entry(final, d.final_mismatch), "mismatch": d.final_mismatch.regions},
-        "summary": paragraph(d),
+        "summary": paragraph(d, [c["parameters"] for c in candidates]),
         "rankings": [{"round": i + 1, "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "notes": r.notes,
                       "candidates": [c.to_dict() for c in r.candidates]} for i, r in enumerate(d.rankings)],
         "maps": {"baseline": d.baseline_mismatch.to_dict(), "final": d.final_mismatch.to_dict()},
@@ -260,8 +268,7 @@ def effect_parameters(trial: Trial) -> dict:
     return {k: v for k, v in posterior_summary(trial.result).items() if k in effect.parameters}
 
 
-def _trial_entry(t: Trial, rankings) -> dict:
-    signature = next((c for c in rankings[t.round - 1].candidates if c.effect == t.effect), None)
+def _trial_entry(t: Trial, signature) -> dict:
     return {"effect": t.effect, "round": t.round, "model": t.result.name,
             "delta_log_evidence": t.log_bayes_factor, "delta_log_evidence_sd": t.log_bayes_factor_sd,
             "parameters": effect_parameters(t),
@@ -270,8 +277,11 @@ def _trial_entry(t: Trial, rankings) -> dict:
             "signature": None if signature is None else signature.to_dict()}
 
 
-def paragraph(d: Diagnosis) -> str:
-    """What was missing, the evidence, how much the fit improved: in plain words."""
+def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
+    """What was missing, the evidence, how much the fit improved: in plain words.
+
+    ``parameters``: each trial's :func:`effect_parameters`, in the order of ``d.trials``.
+    """
     base, bmap, fmap = d.baseline.name, d.baseline_mismatch, d.final_mismatch
     text = [(f"Baseline {base}: RMS standardized residual {bmap.rms_standardized_residual:.2f} "
              f"(1 when the model explains everything but noise), {flags(bmap)} flag(s) in the mismatch map.")]
@@ -282,13 +292,13 @@ def paragraph(d: Diagnosis) -> str:
     if not beam_regions(bmap) and not d.trials:
         text.append("Nothing the damping model leaves out shows above the noise: no effect was added.")
         return " ".join(text)
-    for t in d.trials:
+    for t, summary in zip(d.trials, parameters):
         params = ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
-                           for k, v in effect_parameters(t).items())
+                           for k, v in summary.items())
         verdict = "added" if t.added else "not added: " + (
             "the evidence is not decisive" if not t.decisive else "the mismatch map does not improve")
         text.append(f"Round {t.round}, {t.effect}: log Bayes factor {t.log_bayes_factor:.1f} +- "
-                    f"{t.log_bayes_factor_sd:.2g} nats against {_parent(t, d)}, RMS standardized residual "
+                    f"{t.log_bayes_factor_sd:.2g} nats against {d.chain()[t.round - 1][0].name}, RMS standardized residual "
                     f"{t.mismatch.rms_standardized_residual:.2f}, {flags(t.mismatch)} flag(s); {params}: {verdict}.")
     if d.added:
         text.append(f"Missing physics found: {' and '.join(d.added)}. The fit improved from RMS "
@@ -301,8 +311,3 @@ def paragraph(d: Diagnosis) -> str:
             f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz, {r['time_s'][0]:.3g}-{r['time_s'][1]:.3g} s on "
             f"{r['sensor']} ({r['note']})" for r in d.remaining()) + ".")
     return " ".join(text)
-
-
-def _parent(trial: Trial, d: Diagnosis) -> str:
-    parent = [t for t in d.trials if t.added and t.round < trial.round]
-    return parent[-1].result.name if parent else d.baseline.name

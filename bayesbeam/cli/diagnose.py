@@ -47,8 +47,8 @@ def run(args) -> int:
         result = diagnose(rec, args.model, config, executor, log=None if args.quiet else stderr_progress)
     finally:
         executor.close()
-    paths = write_diagnosis(result, args.out)
     summary = result.to_dict()
+    paths = write_diagnosis(result, summary, args.out)
     print(f"baseline {summary['baseline']['model']}: log Z {summary['baseline']['log_evidence']:.1f}, "
           f"RMS standardized residual {summary['baseline']['rms_standardized_residual']:.2f}")
     print(f"added: {', '.join(summary['added']) or 'nothing'}; unexplained: {summary['unexplained']}")

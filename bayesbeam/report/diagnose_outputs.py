@@ -9,12 +9,13 @@ from bayesbeam.report.diagnosis import write_report
 from bayesbeam.report.fit_outputs import write_json, write_netcdf
 
 
-def write_diagnosis(diagnosis, out_dir) -> list[Path]:
+def write_diagnosis(diagnosis, summary: dict, out_dir) -> list[Path]:
+    """Write the outputs of ``diagnosis`` and its summary ``diagnosis.to_dict()``."""
     out = Path(out_dir)
     (out / "posteriors").mkdir(parents=True, exist_ok=True)
     results = {r.name: r for r in (diagnosis.baseline, *(t.result for t in diagnosis.trials))}
     written = [write_netcdf(inference_data(r), out / "posteriors" / f"{posterior_file_name(m)}.nc")
                for m, r in results.items()]
-    written.append(write_report(diagnosis, out / "report.html"))
-    written.append(write_json(diagnosis.to_dict(), out / "diagnosis.json"))
+    written.append(write_report(diagnosis, summary, out / "report.html"))
+    written.append(write_json(summary, out / "diagnosis.json"))
     return written

@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.patches import Rectangle
 
-from bayesbeam.diagnose import effect_parameters, flags
+from bayesbeam.diagnose import flags
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.comparison import RHAT_FLAG, WIDTH
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
@@ -38,21 +38,21 @@ MODE_COLUMNS = {"frequency": ("frequency error [%]", "frequency_error_pct", "fre
                 "phase": ("phase error at the excitation [rad]", "phase_error_rad", "phase_error_sd_rad", ".2g")}
 
 
-def write_report(d, path) -> Path:
-    """Write the report of a diagnosis (:class:`bayesbeam.diagnose.Diagnosis`) to ``path``, atomically."""
-    return write_text(path, render(d))
+def write_report(d, summary: dict, path) -> Path:
+    """Write the report of a diagnosis (:class:`bayesbeam.diagnose.Diagnosis`) and its
+    ``d.to_dict()`` summary to ``path``, atomically."""
+    return write_text(path, render(d, summary))
 
 
-def render(d) -> str:
+def render(d, summary: dict) -> str:
     """The report's HTML."""
-    summary = d.to_dict()
     maps = compared_maps(d)
     body = [_header(d, summary),
             _summary_section(summary),
             _map_section(d, maps),
             _modes_section(maps),
             _candidates_section(d, summary),
-            _effect_section(d)]
+            _effect_section(d, summary)]
     return page("bayesbeam diagnosis", body)
 
 
@@ -61,12 +61,6 @@ def compared_maps(d) -> list[tuple[str, str, object]]:
     added, the final model's ("after")."""
     maps = [("before", d.baseline.name, d.baseline_mismatch)]
     return maps + [("after", d.final.name, d.final_mismatch)] if d.added else maps
-
-
-def model_chain(d) -> list[tuple[object, object]]:
-    """(ModelResult, Mismatch) of the baseline, then of the model after each added effect: round r
-    ranked, and augmented, entry r - 1."""
-    return [(d.baseline, d.baseline_mismatch)] + [(t.result, t.mismatch) for t in d.trials if t.added]
 
 
 # ---------------------------------------------------------------------------- header and summary
@@ -280,7 +274,7 @@ def _pm(value, sd, fmt) -> str:
 
 # ---------------------------------------------------------------------------- candidates and decisions
 def _candidates_section(d, summary) -> str:
-    chain = model_chain(d)
+    chain = d.chain()
     out = [h2("candidates", SECTIONS),
            ("<p>Name: each catalogue effect's signature (the change it makes to the per-mode errors after the "
             "model's own parameters re-adjust) fitted to the observed errors, ranked before anything is fitted "
@@ -317,7 +311,7 @@ def candidates_table(ranking) -> str:
 
 def trials_table(d) -> str:
     """Every augmented model fitted, against the model it augments: evidence, map, decision."""
-    chain = model_chain(d)
+    chain = d.chain()
     rows = []
     for t in d.trials:
         parent, before = chain[t.round - 1]
@@ -346,32 +340,27 @@ def _comparison_table(models) -> str:
 
 
 # ---------------------------------------------------------------------------- the added effect
-def _effect_section(d) -> str:
+def _effect_section(d, summary) -> str:
     out = [h2("effect", SECTIONS)]
     added = [t for t in d.trials if t.added]
     if not added:
         out.append("<p>No effect was added.</p>")
     for t in added:
-        signature = _signature(d, t)
+        signature, parameters = d.signature(t), summary["candidates"][d.trials.index(t)]["parameters"]
         caption = ("Posterior of the added effect's parameter in the augmented model (all SMC particles): median "
                    "(solid) and 90% interval (shaded), against the signature screen's value and 90% interval "
                    "(marker and bar), estimated before the model was fitted.")
         out.append(f"<h3>{esc(t.effect)} (round {t.round}, {esc(t.result.name)})</h3>"
-                   + figure(effect_posterior_plot(t, signature), f"posterior of {t.effect}", caption))
+                   + figure(effect_posterior_plot(t, parameters, signature), f"posterior of {t.effect}", caption))
     if d.trials:
-        out.append("<h3>Effect parameters of every augmented fit</h3>" + effect_table(d))
+        out.append("<h3>Effect parameters of every augmented fit</h3>" + effect_table(d, summary))
     return "".join(out)
 
 
-def _signature(d, trial):
-    """The signature screen's candidate for the trial's effect in its round, or None."""
-    return next((c for c in d.rankings[trial.round - 1].candidates if c.effect == trial.effect), None)
-
-
-def effect_posterior_plot(trial, signature):
+def effect_posterior_plot(trial, summary: dict, signature):
     """Histogram of each of the effect's parameters over the posterior draws, its median and 90%
-    interval, and the signature screen's value and 90% interval for comparison."""
-    summary = effect_parameters(trial)
+    interval (``summary``: the trial's effect parameters in diagnosis.json), and the signature
+    screen's value and 90% interval for comparison."""
     names = list(trial.result.problem.posterior.names)
     fig, axes = plt.subplots(len(summary), 1, figsize=(WIDTH * 0.8, 3.0 * len(summary)), squeeze=False,
                              layout="constrained")
@@ -395,12 +384,12 @@ def _mark_signature(ax, c):
                 label=f"signature screen {c.value:.4g} (90%)")
 
 
-def effect_table(d) -> str:
+def effect_table(d, summary) -> str:
     """Posterior summary of each augmented model's effect parameters, with the screen's estimate."""
     rows = []
-    for t in d.trials:
-        c = _signature(d, t)
-        for name, q in effect_parameters(t).items():
+    for t, entry in zip(d.trials, summary["candidates"]):
+        c = d.signature(t)
+        for name, q in entry["parameters"].items():
             screen = c is not None and c.parameter == name
             rows.append([esc(t.effect), esc(name), esc(q["unit"]), f"{q['q50']:.4g}",
                          _interval([q["q05"], q["q95"]]), f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}",

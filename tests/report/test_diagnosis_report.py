@@ -21,7 +21,7 @@ from tests.diagnosis_cases import diagnosed
 def report(request, tmp_path_factory):
     """(path of the report, its HTML, the Diagnosis)."""
     d = diagnosed(request.param)
-    path = write_report(d, tmp_path_factory.mktemp("diagnosis") / "report.html")
+    path = write_report(d, d.to_dict(), tmp_path_factory.mktemp("diagnosis") / "report.html")
     return path, path.read_text(encoding="utf-8"), d
 
 
@@ -55,7 +55,7 @@ def test_every_section_and_the_plain_paragraph_are_in_the_report(report):
     _, text, d = report
     for anchor, title in SECTIONS:
         assert f'<h2 id="{anchor}">{title}</h2>' in text
-    assert f'<p class="verdict">{html.escape(paragraph(d))}</p>' in section(text, "summary")
+    assert f'<p class="verdict">{html.escape(paragraph(d, [effect_parameters(t) for t in d.trials]))}</p>' in section(text, "summary")
     header = text[:text.index("<nav>")]
     assert f"<td>{d.final.name}</td>" in header.replace(' class="text"', "")
     assert ("root_compliance" in header) == bool(d.added)
