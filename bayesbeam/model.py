@@ -60,6 +60,14 @@ def split_model(spec) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return tuple(mechanisms), tuple(effects)
 
 
+def resolve_model(spec, effects=None) -> tuple[tuple, tuple]:
+    """(mechanism objects, effect objects) of ``spec`` (see :func:`split_model`) plus ``effects``;
+    ValueError naming the unknown or repeated names."""
+    mechanisms, joined = split_model(spec)
+    named = tuple(e.name for e in effect_catalogue.resolve(effects))
+    return resolve(mechanisms), effect_catalogue.resolve(joined + named)
+
+
 def _check_nonlinear(model) -> None:
     """Refuse what the nonlinear integrator (:mod:`bayesbeam.response.nonlinear`) cannot do."""
     nonlinear = [e.name for e in model.effects if not e.linear]
@@ -99,10 +107,7 @@ class BeamModel:
     def __init__(self, recording: Recording, mechanisms="q1", n_intervals: int = 16,
                  force_window: bool | None = None, effects=None):
         self.recording = recording
-        mechanisms, joined = split_model(mechanisms)
-        self.mechanisms = resolve(mechanisms)
-        named = tuple(e.name for e in effect_catalogue.resolve(effects))
-        self.effects = effect_catalogue.resolve(joined + named)
+        self.mechanisms, self.effects = resolve_model(mechanisms, effects)
         self.n_intervals = int(n_intervals)
         beam, tip = recording.beam, recording.tip
         root = "pinned" if any(e.root == "pinned" for e in self.effects) else "clamped"

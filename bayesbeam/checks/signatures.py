@@ -142,13 +142,12 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None)
     """Rank the catalogue ``effects`` (default: all not already in the model) for ``mismatch``."""
     model = posterior.likelihood.model
     names = [e for e in (effects or catalogue.REGISTRY) if e not in {x.name for x in model.effects}]
-    refused = {}
+    augmented, refused = {}, {}
     for name in names:
         try:
-            _augmented(model, name)
+            augmented[name] = _augmented(model, name)
         except ValueError as exc:
             refused[name] = str(exc)
-    names = [n for n in names if n not in refused]
     theta = np.median(draws, axis=0)
     params, _ = posterior.split(theta)
     base = _Evaluator(model, mismatch.setting)
@@ -156,8 +155,9 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None)
     space = _Space.build(mismatch, base, posterior, theta, base_features)
     dof = space.dof
     p0 = space.p_value(space.chi2_0, dof)
-    level = ALPHA / max(len(names), 1)
-    found = [_candidate(name, posterior, theta, base_features, space, mismatch, level) for name in names]
+    level = ALPHA / max(len(augmented), 1)
+    found = [_candidate(name, aug, posterior, theta, base_features, space, mismatch, level)
+             for name, aug in augmented.items()]
     found.sort(key=lambda c: (not c.supported, -c.delta_chi2))
     if len(found) > 1 and found[0].predicted:
         found[0].reasoning += _contrast(found[0], found[1], mismatch)
@@ -289,11 +289,10 @@ def _jacobian(base: _Evaluator, posterior, theta, f0) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- one candidate
-def _candidate(name, posterior, theta, base_features, space, mismatch, level) -> Candidate:
+def _candidate(name, aug, posterior, theta, base_features, space, mismatch, level) -> Candidate:
     model = posterior.likelihood.model
     effect = catalogue.REGISTRY[name]
     parameter = effect.parameters[0]
-    aug = _augmented(model, name)
     prior = default_priors(model.recording.beam, (parameter,), {})[parameter]
     support = [float(np.exp(v)) if prior.log_scale else float(v) for v in prior.bounds()]
     sig = _Signature(aug, parameter, posterior, theta, base_features, space)

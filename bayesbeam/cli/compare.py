@@ -67,13 +67,10 @@ def model_list(text: str, option: str = "--models") -> list[str]:
 
 def check_model(spec: str, option: str) -> None:
     """UsageError naming ``option`` unless ``spec`` names known mechanisms (and effects)."""
-    from bayesbeam.model import split_model
-    from bayesbeam.physics import effects, mechanisms
+    from bayesbeam.model import resolve_model
 
-    mech, eff = split_model(spec)
     try:
-        mechanisms.resolve(mech)
-        effects.resolve(eff)
+        resolve_model(spec)
     except ValueError as exc:
         raise UsageError(f"{option} {spec}: {exc}") from None
 

@@ -270,8 +270,9 @@ def _sum_sections(s: np.ndarray, den: np.ndarray, beta: np.ndarray, alpha: np.nd
     (n_sections, r) (``alpha`` None for zero). With a = Re d and b = -Im d, small products of
     the section coefficients and per-frequency rows ([Re s^2, Re s, 1, -Re G] and
     [Im s^2, Im s, -Im G]), :math:`1/d = (a + i b)/(a^2 + b^2)`: real arithmetic only, in fewer
-    passes over the (section, frequency) arrays than numpy's complex division. The numerator
-    products write the real and imaginary parts of H in place.
+    passes over the (section, frequency) arrays than numpy's complex division. Without ``alpha``
+    the numerator products write the real and imaginary parts of H in place; with it see
+    :func:`_with_alpha`.
     """
     re_rows, im_rows, den_im = _section_rows(s, den, g)
     r, m = beta.shape[1], den.shape[0]
