@@ -145,6 +145,13 @@ def test_refuses_memory_stronger_than_the_stiffness():
         BeamModel.from_recording(rec, "q2", 8).simulate({"EI": 44.0, "alpha": 100.0, "beta": 1.0})
 
 
+def test_refuses_unbounded_memory():
+    """beta = 0 with r = inf: G(0) = inf; numpy's Cholesky would return NaN rather than raise."""
+    rec, _, _ = example("paper_q3_hammer")
+    with pytest.raises(ValueError, match="beta = 0 with an infinite history"):
+        BeamModel.from_recording(rec, "q2", 8).simulate({"EI": 44.0, "alpha": 1.0, "beta": 0.0})
+
+
 def test_refuses_unknown_mechanism():
     rec, _, _ = example("paper_q3_hammer")
     with pytest.raises(ValueError, match="unknown damping mechanism"):

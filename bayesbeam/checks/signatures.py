@@ -322,6 +322,8 @@ class _Signature:
         theta = self.theta.copy()
         if beta is not None:
             theta[: len(beta)] += beta
+            if not np.isfinite(self.posterior.log_prior(theta)):    # re-adjusted off the support
+                return None
         try:
             return self.evaluate({**self.posterior.split(theta)[0], self.parameter: value}) - self.base
         except (ValueError, np.linalg.LinAlgError, FloatingPointError, RuntimeError):   # e.g. drag's Newton

@@ -84,9 +84,15 @@ class SecondOrderSystem:
         return self.K - np.real(self.relaxation(np.array([0.0])))[0] * self.K_h
 
     def check_stable(self) -> None:
-        """Raise ValueError if the relaxed stiffness is not positive definite."""
+        """Raise ValueError if the relaxed stiffness is not finite and positive definite."""
+        with np.errstate(invalid="ignore"):
+            static = self.static_stiffness()
+        if not np.all(np.isfinite(static)):
+            # numpy's Cholesky returns NaN rather than raising on a NaN matrix
+            raise ValueError("the memory kernel's static relaxation G(0) is not finite: "
+                             "beta must be > 0 when the history r is infinite")
         try:
-            np.linalg.cholesky(self.static_stiffness())
+            np.linalg.cholesky(static)
         except np.linalg.LinAlgError:
             raise ValueError(
                 "the relaxed (static) stiffness is not positive definite: the memory term "

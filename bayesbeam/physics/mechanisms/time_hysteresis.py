@@ -63,6 +63,9 @@ class TimeHysteresis(Mechanism):
         super().check(values)
         if not values["r"] > 0:
             raise ValueError(f"time_hysteresis: r = {values['r']!r} must be > 0 s")
+        if values["beta"] == 0 and np.isinf(values["r"]):
+            raise ValueError("time_hysteresis: beta = 0 with an infinite history r loses infinite "
+                             "static stiffness (G(0) = inf): give beta > 0 1/s or a finite r")
 
     def relaxation(self, values):
         alpha, beta, r = values["alpha"], values["beta"], values["r"]
