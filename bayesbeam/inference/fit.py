@@ -25,7 +25,7 @@ from bayesbeam.inference.sampler import (
 )
 from bayesbeam.model import BeamModel
 from bayesbeam.response.linear import PASSBAND
-from bayesbeam.response.signals import EDGE, decimate
+from bayesbeam.response.signals import EDGE, decimate, force_noise
 
 #: refinement ladder for the automatic choice of N
 N_LADDER = (16, 24, 32, 48, 64)
@@ -46,7 +46,10 @@ class FitConfig:
     32768 samples); n_intervals: spline intervals N or None for automatic; noise: "white" or
     "ar1"; block: samples per likelihood block (default: up to 16 blocks of >= 256 samples
     covering the window); walkers, max_steps,
-    tau_factor: emcee settings; seed; effects: missing-physics effects to add; priors: overrides.
+    tau_factor: emcee settings; seed; effects: missing-physics effects to add; force_window: the
+    impact window on a measured force (None: on); force_noise: marginalise the response driven by
+    the noise of the windowed force samples (on by default; it does nothing for a clean force
+    channel, and needs the window); priors: overrides.
     """
 
     start: float | None = None
@@ -61,6 +64,7 @@ class FitConfig:
     seed: int = 1
     effects: tuple[str, ...] = ()
     force_window: bool | None = None
+    force_noise: bool = True
     priors: dict[str, Prior] = field(default_factory=dict)
 
     def __post_init__(self):
@@ -115,7 +119,8 @@ def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     n_blocks = int(np.clip((i1 - i0) // 256, 1, 16))
     block = config.block or (i1 - i0) // n_blocks
     projection = BandProjection(data.fs, i0, i1, block, f_max)
-    likelihood = Likelihood(model, projection, config.noise)
+    noise_in_force = force_noise(rec, factor) if config.force_noise and config.force_window is not False else None
+    likelihood = Likelihood(model, projection, config.noise, noise_in_force)
     priors = default_priors(rec.beam, model.parameter_names, likelihood.channel_rms)
     for name in likelihood.noise_names:
         if name.startswith("phi_"):
