@@ -29,8 +29,9 @@ from bayesbeam.response.linear import (
     drive_spectrum,
     force_spectrum,
     release_spectrum,
-    respond,
     static_offset,
+    transfer,
+    unit_sample_responses,
 )
 from bayesbeam.response.signals import impact_window
 from bayesbeam.response.system import SecondOrderSystem, undamped_modes
@@ -267,13 +268,53 @@ class BeamModel:
             return self.free_decay_basis(params) @ np.asarray(initial, dtype=float)
         # one check of the parameters per call: simulate sits in the sampler's inner loop
         values = self.values(params)
-        system = self._system(values)
-        tau = self._delay(values)
-        drive = self.drive if tau == 0 else self.drive * np.exp(-self.grid.s * tau)[:, None]
-        y = respond(system, self.grid, self.rows, self.load, drive)
+        return self.linear_response(self._system(values), values)
+
+    def linear_response(self, system: SecondOrderSystem, values: dict[str, float]) -> np.ndarray:
+        """The linear system's response to the recording's input (n_samples, n_sensors).
+
+        ``values`` (checked by :meth:`values`) supply the delay; the nonlinear integrator adds
+        its nonlinear part to this.
+        """
+        h = transfer(system, self.grid, self.rows, self.load)
+        y = self.grid.samples(h * self._delayed(self.drive, values))
+        exc = self.recording.excitation
         if exc.kind == "release":
             y += static_offset(system, self.rows, self.orders, self.load, exc.tip_load)[None, :]
         return y
+
+    def simulate_with_impulses(self, params, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`simulate`, responses (n_samples, n_sensors, K) to a unit force sample (N) at
+        each sample of ``index``) for a measured-force recording.
+
+        The columns are the sensitivity of the response to the force samples, which the
+        likelihood needs to marginalise the force channel's noise. For a linear model both
+        come from one evaluation of the transfer function. With a nonlinear effect the columns
+        are those of its linear part (the effect linearised about rest; the force noise drives
+        a response a hundred times smaller than the signal, so its own nonlinearity is
+        negligible).
+        """
+        if self.recording.excitation.kind != "force":
+            raise ValueError("force-sample responses need a recording with a measured force")
+        values = self.values(params)
+        system = self._system(values)
+        h = transfer(system, self.grid, self.rows, self.load)
+        if any(not e.linear for e in self.effects):
+            y = self.simulate(values)
+        else:
+            y = self.grid.samples(h * self._delayed(self.drive, values))
+        columns = unit_sample_responses(self.grid, h * self._delayed(self._unit_drive, values), index)
+        return y, columns
+
+    def _delayed(self, drive: np.ndarray, values: dict[str, float]) -> np.ndarray:
+        """``drive`` with the response channels' delay e^{-s tau} applied."""
+        tau = self._delay(values)
+        return drive if tau == 0 else drive * np.exp(-self.grid.s * tau)[:, None]
+
+    @cached_property
+    def _unit_drive(self) -> np.ndarray:
+        """The drive of a unit force sample at t = 0 (:func:`drive_spectrum` of a flat spectrum)."""
+        return drive_spectrum(self.grid, self.orders, np.ones(self.grid.freq.size))
 
     def delay(self, params) -> float:
         """Total delay of the response channels behind the motion (s)."""

@@ -4,6 +4,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from bayesbeam import load_recording
 from bayesbeam.cli import main
@@ -90,6 +91,9 @@ def test_fit_writes_outputs_and_flags_unconverged_chains(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["converged"] is False and "max_steps" in summary["convergence"]["reason"]
     assert set(summary["parameters"]) == {"EI", "gamma"}
+    # the force channel's 1 % noise (0.56 N) is measured and its response marginalised
+    assert summary["noise"]["force_noise"]["sd_N"] == pytest.approx(0.562, rel=0.05)
+    assert summary["noise"]["force_noise"]["samples"] > 0
     assert "NOT converged" in capsys.readouterr().out
     # --resume continues the saved chain instead of starting again
     code = main(["fit", rec, *FIT_ARGS, "--max-steps", "90", "--resume", "--out", str(out)])
@@ -99,3 +103,14 @@ def test_fit_writes_outputs_and_flags_unconverged_chains(tmp_path, capsys):
 def test_fit_refuses_an_unknown_model(tmp_path, capsys):
     code = main(["fit", str(DATA / "examples" / "paper_q3_hammer"), "--model", "q9", "--out", str(tmp_path / "x")])
     assert code == 2 and "unknown damping mechanism" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["fit", "compare", "diagnose"])
+def test_no_force_noise_flag_reaches_the_fit_config(command):
+    from bayesbeam.cli import build_parser
+    from bayesbeam.cli.fit import fit_config
+
+    rec = str(DATA / "examples" / "paper_q3_hammer")
+    parser = build_parser()
+    assert fit_config(parser.parse_args([command, rec, "--out", "x"])).force_noise is True
+    assert fit_config(parser.parse_args([command, rec, "--no-force-noise", "--out", "x"])).force_noise is False

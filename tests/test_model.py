@@ -163,3 +163,45 @@ def test_parameter_vector_in_name_order():
     model = BeamModel.from_recording(rec, "q3", 8)
     vector = [params[k] for k in model.parameter_names]
     np.testing.assert_array_equal(model.simulate(vector), model.simulate(params))
+
+
+@pytest.mark.parametrize("effects, extra", [((), {}), (("measurement_delay",), {"tau": 3.3e-4})])
+def test_unit_sample_responses_are_the_response_to_a_unit_force_sample(effects, extra):
+    """simulate_with_impulses: one transfer evaluation gives simulate() and, per sample k, the
+    response to a force that is 1 N at sample k and 0 elsewhere, read from one impulse
+    response by time shift (with the band-limited pre-response before k). Checked against
+    simulate() of that force, at the record's first sample, an interior one, one whose
+    pre-response reaches back past the start, and the last. Relative 1e-8: the exponential
+    window's documented wrap and round-off accuracy."""
+    rec, _, params = example("paper_q3_hammer")
+    rec = replace(rec, time=rec.time[:2048], signals=rec.signals[:2048], force=rec.force[:2048])
+    params = {**params, **extra}
+    model = BeamModel.from_recording(rec, "q3", 8, effects=effects)
+    index = np.array([0, 3, 100, rec.n_samples - 1])
+    y, columns = model.simulate_with_impulses(params, index)
+    np.testing.assert_array_equal(y, model.simulate(params))
+    for j, k in enumerate(index):
+        unit = np.zeros(rec.n_samples)
+        unit[k] = 1.0
+        reference = BeamModel.from_recording(replace(rec, force=unit), "q3", 8, force_window=False,
+                                             effects=effects).simulate(params)
+        np.testing.assert_allclose(columns[:, :, j], reference, atol=1e-8 * np.abs(reference).max())
+
+
+def test_unit_sample_responses_need_a_measured_force():
+    rec, _, params = example("alu_q1_release")
+    with pytest.raises(ValueError, match="measured force"):
+        BeamModel.from_recording(rec, "q1", 8).simulate_with_impulses(params, np.array([0]))
+
+
+def test_unit_sample_responses_of_a_nonlinear_model_are_its_linear_parts():
+    """With quadratic drag the output is the nonlinear simulation and the columns are those of
+    the model without the effect (the documented linearisation about rest), exactly."""
+    rec, _, params = example("paper_q3_hammer")
+    rec = replace(rec, time=rec.time[:1024], signals=rec.signals[:1024], force=rec.force[:1024])
+    index = np.array([50, 60, 70])
+    drag = BeamModel.from_recording(rec, "q3", 6, effects=["quadratic_drag"])
+    y, columns = drag.simulate_with_impulses({**params, "c_q": 0.3}, index)
+    np.testing.assert_array_equal(y, drag.simulate({**params, "c_q": 0.3}))
+    _, linear = BeamModel.from_recording(rec, "q3", 6).simulate_with_impulses(params, index)
+    np.testing.assert_allclose(columns, linear, rtol=0, atol=1e-12 * np.abs(linear).max())

@@ -32,6 +32,8 @@ def add_evidence_options(p) -> None:
     p.add_argument("--stop", type=float, help="end of the fitted window (s)")
     p.add_argument("--max-frequency", type=float, help="top of the fitted band (Hz; default 0.38 fs)")
     p.add_argument("--noise", choices=["white", "ar1"], help="noise model per channel (default white)")
+    p.add_argument("--no-force-noise", action="store_true",
+                   help="do not marginalise the response driven by the force channel's noise inside the impact window")
     p.add_argument("--repeats", type=int, default=3, help="independent SMC evidence runs per model (default 3)")
     p.add_argument("--particles", type=int, help="SMC particles per run (default max(128, 32 x parameters))")
     p.add_argument("--replicates", type=int, default=100, help="posterior predictive replicates (default 100)")

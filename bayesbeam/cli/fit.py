@@ -20,6 +20,8 @@ def add_arguments(fit) -> None:
     fit.add_argument("--max-frequency", type=float,
                      help="top of the fitted band (Hz; default 0.38 fs, the record is decimated to suit)")
     fit.add_argument("--noise", choices=["white", "ar1"], help="noise model per channel (default white)")
+    fit.add_argument("--no-force-noise", action="store_true",
+                     help="do not marginalise the response driven by the force channel's noise inside the impact window")
     fit.add_argument("--walkers", type=int, help="emcee walkers (default max(4 x dim, 16))")
     fit.add_argument("--max-steps", type=int, help="cap on steps per walker (default 20000)")
     fit.add_argument("--seed", type=int, help="random seed (default 1)")
@@ -38,7 +40,8 @@ def fit_config(args):
     overrides = {"start": args.start, "stop": args.stop, "max_frequency": args.max_frequency,
                  "n_intervals": args.n_intervals, "noise": args.noise, "walkers": args.walkers,
                  "max_steps": args.max_steps, "seed": args.seed,
-                 "effects": tuple(args.effect) if args.effect else None}
+                 "effects": tuple(args.effect) if args.effect else None,
+                 "force_noise": False if args.no_force_noise else None}
     return (load_fit_config(args.config, **overrides) if args.config
             else FitConfig(**{k: v for k, v in overrides.items() if v is not None}))
 

@@ -19,13 +19,12 @@ from bayesbeam.inference.sampler import (
     Chains,
     Optimum,
     find_optimum,
-    laplace_covariance,
     newton_shift,
     run_emcee,
 )
 from bayesbeam.model import BeamModel
 from bayesbeam.response.linear import PASSBAND
-from bayesbeam.response.signals import EDGE, decimate
+from bayesbeam.response.signals import EDGE, decimate, force_noise
 
 #: refinement ladder for the automatic choice of N
 N_LADDER = (16, 24, 32, 48, 64)
@@ -46,7 +45,10 @@ class FitConfig:
     32768 samples); n_intervals: spline intervals N or None for automatic; noise: "white" or
     "ar1"; block: samples per likelihood block (default: up to 16 blocks of >= 256 samples
     covering the window); walkers, max_steps,
-    tau_factor: emcee settings; seed; effects: missing-physics effects to add; priors: overrides.
+    tau_factor: emcee settings; seed; effects: missing-physics effects to add; force_window: the
+    impact window on a measured force (None: on); force_noise: marginalise the response driven by
+    the noise of the windowed force samples (on by default; it does nothing for a clean force
+    channel, and needs the window); priors: overrides.
     """
 
     start: float | None = None
@@ -61,6 +63,7 @@ class FitConfig:
     seed: int = 1
     effects: tuple[str, ...] = ()
     force_window: bool | None = None
+    force_noise: bool = True
     priors: dict[str, Prior] = field(default_factory=dict)
 
     def __post_init__(self):
@@ -115,7 +118,8 @@ def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     n_blocks = int(np.clip((i1 - i0) // 256, 1, 16))
     block = config.block or (i1 - i0) // n_blocks
     projection = BandProjection(data.fs, i0, i1, block, f_max)
-    likelihood = Likelihood(model, projection, config.noise)
+    noise_in_force = force_noise(rec, factor) if config.force_noise and config.force_window is not False else None
+    likelihood = Likelihood(model, projection, config.noise, noise_in_force)
     priors = default_priors(rec.beam, model.parameter_names, likelihood.channel_rms)
     for name in likelihood.noise_names:
         if name.startswith("phi_"):
@@ -242,7 +246,7 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     The optimum at N is compared with the optimum at the next finer N, estimated by one Newton
     step of the finer model's log posterior from the coarse optimum (exact to second order in the
     shift, which is small exactly when the check passes). While the check fails, the Newton
-    estimate moves up the ladder (:data:`N_LADDER`) and only the accepted N is polished. With
+    estimate, polished by a local optimisation, moves up the ladder (:data:`N_LADDER`). With
     ``config.n_intervals`` set, that N is used and the check is still recorded, so a user can
     see whether the fixed N is adequate; at the top of the ladder a failed check is reported as
     such (``passed: false``), never hidden.
@@ -252,29 +256,35 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     if start is not None:
         local = find_optimum(problem.posterior, rng, start=start, log=log)
         optimum = local if local.log_posterior > optimum.log_posterior else optimum
-    k = len(problem.posterior.model_names)
-    moved_up = False
     while True:
         n = problem.model.n_intervals
         finer_n = N_LADDER[N_LADDER.index(n) + 1] if n in N_LADDER[:-1] else int(1.5 * n)
         finer = prepare(rec, model, config, finer_n)
-        moved = newton_shift(finer.posterior, optimum.theta, optimum.covariance)
-        shift = np.abs(moved[:k]) / np.sqrt(np.diag(optimum.covariance)[:k])
-        record = {"n_intervals": n, "refined_n_intervals": finer_n, "tolerance_sd": SHIFT_TOLERANCE,
-                  "max_shift_sd": float(np.max(shift)),
-                  "shift_sd": dict(zip(problem.posterior.model_names, map(float, shift))),
-                  "passed": bool(np.max(shift) < SHIFT_TOLERANCE), "automatic": not config.n_intervals}
-        if log:
-            log(f"N = {n} vs {finer_n}: largest optimum shift {np.max(shift):.3g} posterior sd")
+        record, moved = _refinement_check(problem, finer, optimum, config, log)
         if record["passed"] or config.n_intervals or finer_n > N_LADDER[-1]:
             break
         theta = optimum.theta + np.where(np.isfinite(moved), moved, 0.0)
         # a failed check can mean a long Newton step: keep it only where the finer model is better
         if not finer.posterior(theta) > finer.posterior(optimum.theta):
             theta = optimum.theta
-        problem, moved_up = finer, True
-        optimum = Optimum(theta, problem.posterior(theta), laplace_covariance(problem.posterior, theta), 0)
-    if moved_up:
-        start = problem.posterior.split(optimum.theta)[0]
-        optimum = find_optimum(problem.posterior, rng, start=start, log=log)
+        # polished at every rung: EI's likelihood is too narrow and curved for Newton steps to be
+        # carried up the ladder, and a check from a point that is not the optimum measures that
+        # point's error, not the discretisation's
+        problem = finer
+        optimum = find_optimum(problem.posterior, rng, start=problem.posterior.split(theta)[0], log=log)
     return problem, optimum, record
+
+
+def _refinement_check(problem: Problem, finer: Problem, optimum: Optimum, config: FitConfig, log=None):
+    """(the check's record, the Newton estimate of the optimum's move from N to the finer N)."""
+    k = len(problem.posterior.model_names)
+    n, finer_n = problem.model.n_intervals, finer.model.n_intervals
+    moved = newton_shift(finer.posterior, optimum.theta, optimum.covariance)
+    shift = np.abs(moved[:k]) / np.sqrt(np.diag(optimum.covariance)[:k])
+    record = {"n_intervals": n, "refined_n_intervals": finer_n, "tolerance_sd": SHIFT_TOLERANCE,
+              "max_shift_sd": float(np.max(shift)),
+              "shift_sd": dict(zip(problem.posterior.model_names, map(float, shift))),
+              "passed": bool(np.max(shift) < SHIFT_TOLERANCE), "automatic": not config.n_intervals}
+    if log:
+        log(f"N = {n} vs {finer_n}: largest optimum shift {np.max(shift):.3g} posterior sd")
+    return record, moved

@@ -71,21 +71,17 @@ class LogPosterior:
         return -np.inf if full is None else self(full)
 
     def with_profiled_noise(self, model_theta):
-        """theta with sigma_c = RMS of channel c's band residual, clipped to its prior's support
-        (AR(1) phi kept at 0), or None."""
+        """theta with the noise at its conditional optimum (:meth:`Likelihood.profile_noise`),
+        clipped to its prior's support, or None."""
         k = len(self.model_names)
-        names = self.names[k:]
         trial = np.concatenate([model_theta, [p.median() for p in self.priors[k:]]])
         params, _ = self.split(trial)
-        lik = self.likelihood
         try:
-            pred = lik.projection.project(lik.predict(params))
+            noise = self.likelihood.profile_noise(params)
         except (ValueError, np.linalg.LinAlgError, FloatingPointError):
             return None
-        rms = np.sqrt(np.mean((lik.z_data - pred) ** 2, axis=0))
-        noise = {f"sigma_{c}": r for c, r in zip(lik.channels, rms)}
-        noise.update({n: 0.0 for n in names if n.startswith("phi_")})
         # clipped into the prior's support: far from the optimum the RMS residual can exceed a
         # narrow noise prior, and -inf there would leave the optimiser without a gradient
-        coords = [np.clip(p.to_coordinate(noise[n]), *p.bounds()) for n, p in zip(names, self.priors[k:])]
+        coords = [np.clip(p.to_coordinate(noise[n]), *p.bounds())
+                  for n, p in zip(self.names[k:], self.priors[k:])]
         return np.concatenate([model_theta, coords])

@@ -92,6 +92,16 @@ def _stats(draws: np.ndarray, tau: float, n_walkers: int, n_steps: int, burn: in
             "tau": float(tau)}
 
 
+def _force_noise_summary(lik) -> dict | None:
+    """What the likelihood marginalised of the force channel's noise (None: nothing)."""
+    noise = lik.force_noise
+    if noise is None:
+        return None
+    return {"sd_N": noise.sd, "samples": noise.size,
+            "note": "the response driven by the noise of the force samples inside the impact window "
+                    "is marginalised (errors in variables); sd measured where the window is closed"}
+
+
 def build_summary(result) -> dict:
     """The summary.json of a fit (SI units, the paper's parameter names)."""
     with warnings.catch_warnings():
@@ -121,7 +131,8 @@ def build_summary(result) -> dict:
         "mechanisms": [m.name for m in model.mechanisms],
         "effects": [e.name for e in model.effects],
         "parameters": {n: stats[n] for n in post.model_names},
-        "noise": {"model": lik.noise, **{n: stats[n] for n in lik.noise_names}},
+        "noise": {"model": lik.noise, **{n: stats[n] for n in lik.noise_names},
+                  "force_noise": _force_noise_summary(lik)},
         "converged": bool(chains.converged),
         "convergence": {"rule": f"chain > {result.config.tau_factor:g} tau and tau stable to 5%",
                         "reason": chains.reason, "n_steps": chains.n_steps, "n_walkers": n_walkers,

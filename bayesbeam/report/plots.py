@@ -122,8 +122,9 @@ def trace_plot(result):
     fig, axes = plt.subplots(n, 1, figsize=(8, 1.5 * n + 0.5), sharex=True)
     axes = np.atleast_1d(axes)
     steps = result.chains.burn + result.chains.thin * np.arange(values.shape[1])
-    units = {**result.problem.model.units, **{k: v["unit"] for k, v in result.summary["noise"].items()
-                                             if isinstance(v, dict)}}
+    noise = result.summary["noise"]
+    units = {**result.problem.model.units,
+             **{n: noise[n]["unit"] for n in result.problem.likelihood.noise_names}}
     for i, ax in enumerate(axes):
         ax.plot(steps, values[:, :, i].T, lw=0.5, alpha=0.5, color="C0")
         ax.set_ylabel(_label(post.names[i], units.get(post.names[i])), fontsize=8)

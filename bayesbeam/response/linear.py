@@ -143,15 +143,35 @@ def release_spectrum(grid: FrequencyGrid, tip_load: float, t0: float = 0.0) -> n
     return -tip_load * np.exp(grid.s * t0) / (grid.s * grid.dt)
 
 
-def respond(system: SecondOrderSystem, grid: FrequencyGrid, rows: np.ndarray, load: np.ndarray,
-            drive: np.ndarray) -> np.ndarray:
-    """Outputs (n, n_out): the inverse transform of H(s) times :func:`drive_spectrum`.
+def transfer(system: SecondOrderSystem, grid: FrequencyGrid, rows: np.ndarray,
+             load: np.ndarray) -> np.ndarray:
+    """H(s) on the grid from the load vector to every output row: (n_freq, n_out).
 
     ``rows`` (n_out, n_dof) are displacement rows, ``load`` (n_dof,) the generalized load vector.
     """
-    h = system.transfer(grid.s, rows, load[:, None])[:, :, 0]
-    h *= drive
-    return grid.samples(h)
+    return system.transfer(grid.s, rows, load[:, None])[:, :, 0]
+
+
+def respond(system: SecondOrderSystem, grid: FrequencyGrid, rows: np.ndarray, load: np.ndarray,
+            drive: np.ndarray) -> np.ndarray:
+    """Outputs (n, n_out): the inverse transform of H(s) times :func:`drive_spectrum`."""
+    return grid.samples(transfer(system, grid, rows, load) * drive)
+
+
+def unit_sample_responses(grid: FrequencyGrid, spectrum: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """Responses (n, n_out, K) to a unit input sample at each of the samples ``index`` (K,).
+
+    ``spectrum`` is H(s) times the drive of a unit sample at t = 0
+    (:func:`drive_spectrum` of an all-ones input spectrum). Its impulse response x is computed
+    once; the column of sample k is x(n - k) (time invariance), and for n < k it is the
+    band-limited pre-response of the DAQ passband, which the FFT buffer holds at its end. The
+    window is undone there too (x e^{sigma t} with t < 0); the wrapped tail of the ring-down
+    that shares those bins is damped by e^{-sigma P dt} < e^{-36}.
+    """
+    x = fft.irfft(spectrum, grid.n_fft, axis=0)                       # (n_fft, n_out), windowed
+    lag = np.arange(grid.n)[:, None] - np.asarray(index)[None, :]     # (n, K), from -max(index)
+    columns = x[lag % grid.n_fft] * np.exp(grid.sigma * grid.dt * lag)[:, :, None]
+    return columns.transpose(0, 2, 1)
 
 
 def static_offset(system: SecondOrderSystem, rows: np.ndarray, orders, load: np.ndarray,

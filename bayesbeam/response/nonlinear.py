@@ -92,7 +92,7 @@ from scipy import fft, linalg, special
 
 from bayesbeam.physics.effects.dry_friction import DryFriction
 from bayesbeam.physics.effects.quadratic_drag import QuadraticDrag
-from bayesbeam.response.linear import FrequencyGrid, respond, static_offset
+from bayesbeam.response.linear import FrequencyGrid
 from bayesbeam.response.system import SecondOrderSystem
 
 #: fine steps per sample (h = dt / U), chosen from the convergence study in the tests
@@ -170,7 +170,7 @@ def integrate(model, params, initial=None, substeps: int | None = None, *, law=N
         inputs, seq, hold = np.eye(plant.n), force, "cubic"
     else:  # pragma: no cover - guarded by the registry
         raise ValueError(f"no integrator for effect {effect.name}")
-    y = _linear_output(model, system, values) + plant.response(inputs, seq, hold, model.delay(values))
+    y = model.linear_response(system, values) + plant.response(inputs, seq, hold, model.delay(values))
     return NonlinearSolution(y, plant.h, plant.t_start, force, solver.final_state, solver.record)
 
 
@@ -181,17 +181,6 @@ def phi1(z):
     small = np.abs(z) < 1e-4
     safe = np.where(small, 1.0, z)
     return np.where(small, 1 + z / 2 + z * z / 6, np.expm1(safe) / safe)
-
-
-def _linear_output(model, system, values) -> np.ndarray:
-    """The linear model's response, computed exactly as ``BeamModel.simulate`` does."""
-    tau = model.delay(values)
-    drive = model.drive if tau == 0 else model.drive * np.exp(-model.grid.s * tau)[:, None]
-    y = respond(system, model.grid, model.rows, model.load, drive)
-    exc = model.recording.excitation
-    if exc.kind == "release":
-        y += static_offset(system, model.rows, model.orders, model.load, exc.tip_load)[None, :]
-    return y
 
 
 def _modes(system: SecondOrderSystem):

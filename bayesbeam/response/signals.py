@@ -3,10 +3,15 @@
 The force window of impact testing: outside the impact a hammer's force channel holds only noise,
 and that noise, fed to the model as a force, drives a spurious response over the whole record.
 The standard remedy keeps the samples around the impact and zeroes the rest.
+
+The samples it keeps still carry their noise: the force is an errors-in-variables input.
+:func:`force_noise` measures that noise where the window is closed and states what is left of it
+in the kept samples, so the likelihood can marginalise the response it drives
+(:mod:`bayesbeam.inference.likelihood`).
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -45,6 +50,57 @@ def impact_window(force: np.ndarray, *, pre: int = PRE, post: int = POST, taper:
     window[left[left >= 0]] = ramp[left >= 0]
     window[right[right < n]] = ramp[right < n]
     return window
+
+
+@dataclass(frozen=True)
+class ForceNoise:
+    """The noise left in the windowed, decimated force: independent samples of known variance.
+
+    ``sd``: the force channel's noise sd at the recorded rate (N); ``index``: the samples of the
+    (decimated) record that keep some noise; ``variance``: their noise variance (N^2).
+    """
+
+    sd: float
+    index: np.ndarray
+    variance: np.ndarray
+
+    @property
+    def size(self) -> int:
+        return int(self.index.size)
+
+
+def force_noise(recording, factor: int = 1) -> ForceNoise | None:
+    r"""The noise of a measured force inside its impact window, at the rate fs/``factor``.
+
+    Its sd :math:`\sigma_f` is measured robustly (1.4826 x the median absolute deviation) where
+    the window (:func:`impact_window`) is zero, so the pulse does not inflate it. Inside the
+    window the kept noise is :math:`w_j e_j`. After the decimating low-pass its samples are
+    correlated, but below the passband edge, the only band a fit uses, independent samples of
+    variance
+
+    .. math:: s_k^2 = \frac{\sigma_f^2}{D}\,\overline{w^2}_k
+
+    have the same spectral density (:math:`\overline{w^2}_k` is the mean of :math:`w^2` over
+    the D = ``factor`` recorded samples centred on sample k; exact for D = 1).
+    Returns None for recordings without a measured force or with a noise-free force channel.
+    """
+    force = recording.force
+    if recording.excitation.kind != "force" or force is None:
+        return None
+    window = impact_window(force)
+    quiet = force[window == 0]
+    if quiet.size < 16:
+        return None
+    sd = 1.4826 * float(np.median(np.abs(quiet - np.median(quiet))))
+    if not sd > 0:
+        return None
+    factor = int(factor)
+    n_out = -(-force.size // factor)
+    pad = np.zeros(n_out * factor + factor)
+    pad[factor // 2 : factor // 2 + force.size] = window**2     # sample k covers k D -/+ D/2
+    mean_w2 = pad[: n_out * factor].reshape(n_out, factor).mean(axis=1)
+    index = np.flatnonzero(mean_w2 > 0)
+    return ForceNoise(sd, index, sd**2 / factor * mean_w2[index])
 
 
 def decimate(recording, factor: int, *, force_window: bool | None = None):
