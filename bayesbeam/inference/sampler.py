@@ -3,7 +3,8 @@ r"""From a robust optimum to converged emcee chains.
 1. **Optimum.** The likelihood of EI is sharply multimodal (0.5% in EI shifts the phase of a
    127 Hz mode by a cycle over 2 s) and the damping surface is narrow and curved. So: EI from
    the data's spectral peaks (:func:`spectral_ei`), refined by a likelihood scan over +-4% in
-   steps of 0.025% with the damping at its prior medians, then differential evolution over all
+   steps of 0.025% with the damping at its prior medians and any missing-physics effect where it
+   vanishes, then differential evolution over all
    model parameters with EI kept within +-0.5%, then a Nelder-Mead polish; the noise levels are
    profiled out throughout (:meth:`LogPosterior.profiled`).
 2. **Scale.** A finite-difference Hessian of the log posterior at the optimum gives the
@@ -80,7 +81,7 @@ def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: i
     if start is not None:
         x0 = np.array([post.priors[i].to_coordinate(start[n]) for i, n in enumerate(post.model_names)])
     else:
-        x0 = np.array([p.median() for p in post.priors[:k]])
+        x0 = _neutral_start(post)
         guess = spectral_ei(post, x0, bounds[0])
         x0[0] = _scan_ei(counter, x0, guess, 0.04, scan_points)
         _say(log, f"EI from spectral peaks {np.exp(guess):.5g}, refined by a likelihood scan to "
@@ -104,6 +105,23 @@ def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: i
     cov = laplace_covariance(post, full)
     _say(log, f"optimum: log posterior {post(full):.6g} ({counter.calls} evaluations)")
     return Optimum(full, post(full), cov, counter.calls)
+
+
+def _neutral_start(post: LogPosterior) -> np.ndarray:
+    """Model coordinates to start the global search from: each prior's median, except that every
+    missing-physics effect starts where it vanishes (``Effect.absent``, clipped into the prior's
+    support). The EI scan and the differential evolution's EI window are set at this point, so an
+    effect's prior median (a tension of several buckling loads, say) would put EI where that
+    effect and EI together fit the peaks, far from the data's EI."""
+    absent = {n: v for e in post.likelihood.model.effects for n, v in e.absent.items()}
+    x0 = []
+    for name, prior in zip(post.model_names, post.priors):
+        if name in absent:
+            with np.errstate(divide="ignore"):
+                x0.append(float(np.clip(prior.to_coordinate(absent[name]), *prior.bounds())))
+        else:
+            x0.append(prior.median())
+    return np.array(x0)
 
 
 def spectral_ei(post: LogPosterior, x0: np.ndarray, bounds) -> float:

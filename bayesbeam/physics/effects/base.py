@@ -12,6 +12,7 @@ Like a damping mechanism it has named parameters (SI units) and adds to the Gale
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -34,6 +35,9 @@ class Effect(Component):
     root: str = "clamped"
     #: True when the effect keeps the equations linear
     linear: bool = True
+    #: parameter values at which the effect vanishes (the optimiser's global search starts there:
+    #: an effect's prior median, such as a tension of several buckling loads, is no neutral guess)
+    absent: ClassVar[dict[str, float]] = {}
 
     def mass(self, ops: BeamOperators, values, setup: Setup) -> np.ndarray | None:
         """Added mass matrix (kg in generalised coordinates), or None."""

@@ -17,6 +17,8 @@ within :math:`F_c/k` of equilibrium.
 """
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
 from bayesbeam.physics.effects.base import Effect
@@ -25,6 +27,7 @@ from bayesbeam.physics.effects.base import Effect
 class DryFriction(Effect):
     name = "dry_friction"
     parameters = ("F_c",)
+    absent: ClassVar[dict[str, float]] = {"F_c": 0.0}
     units = {"F_c": "N"}
     description = "Coulomb friction opposing the tip velocity (rubbing contact, cable), with stick-slip"
     linear = False

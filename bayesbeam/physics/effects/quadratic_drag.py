@@ -15,6 +15,7 @@ K, and :mod:`bayesbeam.response.nonlinear` integrates it in time.
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import ClassVar
 
 import numpy as np
 
@@ -34,6 +35,7 @@ def _quadrature(basis: SplineBasis, points: int):
 class QuadraticDrag(Effect):
     name = "quadratic_drag"
     parameters = ("c_q",)
+    absent: ClassVar[dict[str, float]] = {"c_q": 0.0}
     units = {"c_q": "N s^2/m^3"}
     description = "amplitude-dependent air drag, force c_q |u_t| u_t per unit length along the beam"
     linear = False

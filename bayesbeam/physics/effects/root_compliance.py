@@ -5,6 +5,8 @@ and the spring adds :math:`k_\\theta\\, u_x(0)\\, \\psi_x(0)` to the weak form, 
 :math:`K \\mathrel{+}= k_\\theta\\, e_0' e_0'^T` with :math:`e_0' = B'(0)`. k_theta in N m/rad;
 as k_theta grows the clamped beam is recovered.
 """
+from typing import ClassVar
+
 import numpy as np
 
 from bayesbeam.physics.effects.base import Effect
@@ -13,6 +15,7 @@ from bayesbeam.physics.effects.base import Effect
 class RootCompliance(Effect):
     name = "root_compliance"
     parameters = ("k_theta",)
+    absent: ClassVar[dict[str, float]] = {"k_theta": np.inf}
     units = {"k_theta": "N m/rad"}
     description = "rotational spring at the clamp, EI u_xx(0) = k_theta u_x(0)"
     root = "pinned"

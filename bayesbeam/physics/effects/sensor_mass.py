@@ -3,6 +3,8 @@
 Weak form: :math:`m_s\\, u_{tt}(x_s)\\, \\psi(x_s)`, i.e. :math:`M \\mathrel{+}= m_s\\, r r^T`
 with :math:`r = B(x_s)`. m_s in kg.
 """
+from typing import ClassVar
+
 import numpy as np
 
 from bayesbeam.physics.effects.base import Effect
@@ -11,6 +13,7 @@ from bayesbeam.physics.effects.base import Effect
 class SensorMass(Effect):
     name = "sensor_mass"
     parameters = ("m_s",)
+    absent: ClassVar[dict[str, float]] = {"m_s": 0.0}
     units = {"m_s": "kg"}
     description = "point mass of the sensor at the first sensor's location"
 
