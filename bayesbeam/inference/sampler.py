@@ -265,7 +265,7 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
     sampler = emcee.EnsembleSampler(n_walkers, ndim, fn, pool=pool, backend=backend)
     # emcee draws its moves from a copy of numpy's global state: seed it from rng instead
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
-    state = None if (resume and backend is not None and backend.iteration > 0) else _initial_ball(post, optimum, n_walkers, rng)
+    state = None if (resume and backend is not None and backend.iteration > 0) else initial_ball(post, optimum, n_walkers, rng)
     if state is None and backend.shape != (n_walkers, ndim):
         raise ValueError(f"--resume: the saved chain has {backend.shape} (walkers, parameters), this fit "
                          f"needs {(n_walkers, ndim)}; rerun without --resume")
@@ -293,7 +293,8 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
                   sampler.iteration, burn, thin, converged, reason, time.perf_counter() - started)
 
 
-def _initial_ball(post, optimum, n_walkers, rng):
+def initial_ball(post, optimum, n_walkers, rng):
+    """Walker starts: the optimum plus 0.1 x the Laplace sd times standard normals, each finite."""
     sd = np.sqrt(np.clip(np.diag(optimum.covariance), 1e-14, None))
     walkers = []
     while len(walkers) < n_walkers:
