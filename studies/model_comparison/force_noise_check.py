@@ -76,8 +76,8 @@ def main() -> None:
     names = list(values)
     lines = ["# Force noise on the paper_q3_hammer test: fresh noise draws",
              "", "Written by `force_noise_check.py`; see its docstring for the method.", "",
-             f"{args.draws} draws (seeds 2000-{1999 + args.draws}); sensor noise sd {sensor_sd:.4g} m/s^2, "
-             f"force noise sd {force_sd:.4g} N; fit: q3, N = 48, band to 150 Hz.", ""]
+             (f"{args.draws} draws (seeds 2000-{1999 + args.draws}); sensor noise sd {sensor_sd:.4g} m/s^2, "
+              f"force noise sd {force_sd:.4g} N; fit: q3, N = 48, band to 150 Hz."), ""]
     for marginalised, label in ((True, "force noise marginalised (default)"), (False, "`--no-force-noise`")):
         arr = np.array(z[marginalised])
         lines += [f"## {label}", "", "| parameter | mean z (bias) | sd z (1 = calibrated) | truth inside 90 % |",
