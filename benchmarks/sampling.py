@@ -58,6 +58,27 @@ def evaluations_per_second(post, theta) -> float:
     return 1.0 / best
 
 
+def cost_split(post, theta, calls: int = 100) -> None:
+    """Print where one evaluation's time goes (cProfile over ``calls`` evaluations): the share of
+    the largest internal times and the Python function calls per evaluation. A likelihood
+    vectorised over walkers could only save the per-call Python overhead; the linear algebra
+    (one eigen-decomposition per parameter set) stays per walker."""
+    import cProfile
+    import pstats
+
+    profile = cProfile.Profile()
+    profile.enable()
+    for _ in range(calls):
+        post(theta)
+    profile.disable()
+    stats = pstats.Stats(profile)
+    total = stats.total_tt
+    print(f"   per evaluation: {stats.total_calls / calls:.0f} Python-level calls; largest internal times:")
+    rows = sorted(stats.stats.items(), key=lambda item: -item[1][2])[:5]
+    for (path, line, name), (_, _, tottime, _, _) in rows:
+        print(f"   {100 * tottime / total:5.1f} %  {name} ({Path(path).name}:{line})")
+
+
 def time_to_ess(post, ball, seed: int, target_ess: float, pool=None) -> tuple[float, int, float]:
     """(wall seconds, steps, smallest ESS) of an emcee run continued until every parameter's ESS
     reaches ``target_ess`` (checked every CHECK_EVERY steps)."""
@@ -93,6 +114,7 @@ def main() -> None:
     optimum = find_optimum(post, np.random.default_rng(1), start={"EI": truth["beam_true"]["EI"], **truth["damping"]})
     rate = evaluations_per_second(post, optimum.theta)
     print(f"1. log posterior evaluations: {rate:.0f} per second in one process ({1e3 / rate:.2f} ms each)")
+    cost_split(post, optimum.theta)
 
     n_walkers = max(4 * post.ndim, 16)
     ball = initial_ball(post, optimum, n_walkers, np.random.default_rng(2))
