@@ -276,7 +276,10 @@ class BeamModel:
         ``values`` (checked by :meth:`values`) supply the delay; the nonlinear integrator adds
         its nonlinear part to this.
         """
-        h = transfer(system, self.grid, self.rows, self.load)
+        return self._output(transfer(system, self.grid, self.rows, self.load), system, values)
+
+    def _output(self, h: np.ndarray, system: SecondOrderSystem, values: dict[str, float]) -> np.ndarray:
+        """:meth:`linear_response` from the transfer function ``h`` already evaluated on the grid."""
         y = self.grid.samples(h * self._delayed(self.drive, values))
         exc = self.recording.excitation
         if exc.kind == "release":
@@ -299,10 +302,7 @@ class BeamModel:
         values = self.values(params)
         system = self._system(values)
         h = transfer(system, self.grid, self.rows, self.load)
-        if any(not e.linear for e in self.effects):
-            y = self.simulate(values)
-        else:
-            y = self.grid.samples(h * self._delayed(self.drive, values))
+        y = self.simulate(values) if any(not e.linear for e in self.effects) else self._output(h, system, values)
         columns = unit_sample_responses(self.grid, h * self._delayed(self._unit_drive, values), index)
         return y, columns
 

@@ -41,8 +41,8 @@ Pointwise terms and predictions are conditional on the posterior mean :math:`A^{
   model (S_j = 10 x data RMS / column RMS), so evidences stay comparable.
 - *Force noise* (errors in variables): the impact window keeps the noise of the force samples
   inside it, and that noise drives a response the sensor noise cannot explain (on the
-  paper_q3_hammer example, 1 % force noise leaves an in-band residual 1.8 x the sensor noise
-  at the true parameters and biases gamma). The kept noise samples are the latent terms:
+  paper_q3_hammer example, 1 % force noise leaves a residual 1.4 x the sensor noise in the
+  band to 150 Hz at the true parameters and biases gamma). The kept noise samples are the latent terms:
   :math:`\Psi` holds the model's responses to a unit force sample at each of them
   (:meth:`BeamModel.simulate_with_impulses`) and :math:`S^2` their variance, measured from the
   force channel where the window is closed (:func:`bayesbeam.response.signals.force_noise`).
