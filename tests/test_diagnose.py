@@ -82,7 +82,11 @@ def test_the_map_improves_only_if_the_residual_falls_and_flags_do_not_grow():
     assert not improved(before, _map(1.1, cells=4, mode_flags=["frequency"], delay=True))
 
 
-def test_a_flagged_decay_shape_puts_drag_or_friction_among_the_fitted_candidates():
+def _mode(curvature_error, p):
+    return {"curvature_error_per_s": curvature_error, "p_values": {"curvature": p}}
+
+
+def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
     from bayesbeam.diagnose import _candidates
 
     def cand(effect, supported):
@@ -91,9 +95,23 @@ def test_a_flagged_decay_shape_puts_drag_or_friction_among_the_fitted_candidates
     ranking = SimpleNamespace(candidates=[cand("axial_load", True), cand("sensor_mass", True),
                                           cand("root_compliance", True), cand("quadratic_drag", False),
                                           cand("dry_friction", False)])
-    rises = SimpleNamespace(modes=[{"decay": "amplitude-dependent: damping rises as the vibration decays"}])
-    plain = SimpleNamespace(modes=[{"decay": "exponential, like the model's"}])
+    rises = SimpleNamespace(modes=[_mode(-0.05, 1e-6), _mode(0.01, 0.5)])
+    plain = SimpleNamespace(modes=[_mode(0.01, 0.3), _mode(-0.01, 0.6)])
     assert [c.effect for c in _candidates(ranking, plain, 2)] == ["axial_load", "sensor_mass"]
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["axial_load", "sensor_mass", "dry_friction"]
     ranking.candidates = [cand("quadratic_drag", False), cand("dry_friction", False)]
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["quadratic_drag", "dry_friction"]
+
+
+def test_the_decay_screen_is_looser_than_the_maps_flag_and_counts_the_modes():
+    """The paper beam's drag: mode 3's curvature 4 sd off (p = 2.9e-4) is not a map flag at four modes
+    (ALPHA / 60 = 1.7e-4) but must put drag among the candidates (ALPHA / 4 = 2.5e-3); a mode at
+    p = 0.014 (mode 1 there) alone must not, nor may a missing estimate."""
+    from bayesbeam.diagnose import amplitude_dependence
+
+    paper = [_mode(0.042, 0.014), _mode(-0.0085, 0.67), _mode(0.026, 2.9e-4), _mode(-0.055, 0.56)]
+    assert amplitude_dependence(SimpleNamespace(modes=paper)) == {"quadratic_drag"}
+    assert amplitude_dependence(SimpleNamespace(modes=paper[:2])) == set()
+    assert amplitude_dependence(SimpleNamespace(modes=[_mode(0.03, 0.004)] * 4)) == set()   # 4e-3 > 0.01 / 4
+    assert amplitude_dependence(SimpleNamespace(modes=[_mode(0.03, 0.004)])) == {"quadratic_drag"}
+    assert amplitude_dependence(SimpleNamespace(modes=[_mode(None, None)])) == set()

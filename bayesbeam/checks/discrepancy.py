@@ -440,6 +440,7 @@ def _mode_row(m, err, obs, ch, channels, level, n_rep, model_f, model_zeta, rate
            "phase_error_rad": _num(pick["phase"][0]), "phase_error_sd_rad": _num(pick["phase"][1]),
            "decay_rate_per_s": {"measured": [_num(v) for v in obs["rates"][m]],
                                 "replicated": [_num(v) for v in rates_rep]},
+           "curvature_error_per_s": _num(pick["curvature"][0]), "curvature_error_sd_per_s": _num(pick["curvature"][1]),
            "decay": _decay_shape(pick["curvature"][0], "curvature" in flags),
            "p_values": p, "flags": flags}
     row["note"] = _mode_note(row)
