@@ -188,8 +188,9 @@ class BeamModel:
         """:meth:`system` at values already checked by :meth:`values`."""
         damping, relaxation = self._damping(v)
         mass, stiffness, modes = self._mass_stiffness(v)
+        split = None if relaxation is None or modes is not None else _low_rank_split(stiffness, v["EI"] * self.ops.K0)
         system = SecondOrderSystem(mass, damping, stiffness, relaxation,
-                                   self.ops.K0 if relaxation else None, modes)
+                                   self.ops.K0 if relaxation else None, modes, (v["EI"], *split) if split else None)
         if relaxation is not None:
             system.check_stable()
         return system
@@ -309,7 +310,7 @@ class BeamModel:
     def _delayed(self, drive: np.ndarray, values: dict[str, float]) -> np.ndarray:
         """``drive`` with the response channels' delay e^{-s tau} applied."""
         tau = self._delay(values)
-        return drive if tau == 0 else drive * np.exp(-self.grid.s * tau)[:, None]
+        return drive if tau == 0 else drive * self.grid.delay(tau)[:, None]
 
     @cached_property
     def _unit_drive(self) -> np.ndarray:
@@ -387,6 +388,26 @@ class BeamModel:
             return None
         use = True if force_window is None else bool(force_window)
         return rec.force * impact_window(rec.force) if use else rec.force
+
+
+#: largest rank of the effects' added stiffness for the ``low_rank`` transfer form
+MAX_SPLIT_RANK = 4
+
+
+def _low_rank_split(stiffness: np.ndarray, plain: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(W, S) with stiffness - plain = W diag(S) W^T when that rank is at most MAX_SPLIT_RANK.
+
+    The memory acts on EI K_0 only; a root spring adds a rank-1 stiffness beside it, which keeps a
+    model with memory off the slow dense transfer form (see
+    :class:`~bayesbeam.response.system.SecondOrderSystem`). Eigenvalues below 1e-12 of the
+    largest are rounding of a lower rank.
+    """
+    added = stiffness - plain
+    values, vectors = np.linalg.eigh(added)
+    keep = np.abs(values) > 1e-12 * np.max(np.abs(values), initial=0.0)
+    if not 0 < keep.sum() <= MAX_SPLIT_RANK:
+        return None
+    return vectors[:, keep], values[keep]
 
 
 def _null_vector(system: SecondOrderSystem, p: complex) -> np.ndarray:

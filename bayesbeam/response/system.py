@@ -17,8 +17,12 @@ exact modal forms:
 ``complex``
     no memory term, general :math:`D` (spatial hysteresis, air with a tip body): the complex
     eigenvalues :math:`p_j` of the first-order form give :math:`\sum_j R_j/(s - p_j)`.
+``low_rank``
+    memory term, diagonal modal damping and a stiffness :math:`K = c K_h + W S W^T` that differs
+    from a multiple of the memory stiffness by a term of small rank r (a root spring: r = 1): the
+    diagonal form plus an r x r Woodbury correction per frequency (:meth:`SecondOrderSystem._transfer_low_rank`).
 ``dense``
-    memory term and non-diagonal damping: a batched solve in modal coordinates per frequency.
+    any other memory term: a batched solve in modal coordinates per frequency (100 times slower).
 
 The first two are sums of real second-order sections (:func:`_sum_sections`), the hot loop of
 every simulation: 85 % of ``BeamModel.simulate``.
@@ -51,6 +55,9 @@ class SecondOrderSystem:
     K_h: np.ndarray | None = None
     #: the undamped eigenpairs (omega^2, Phi) when the caller already knows them
     modes: tuple[np.ndarray, np.ndarray] | None = None
+    #: (c, W, S) with K = c K_h + W diag(S) W^T, W of few columns, when the caller knows it
+    #: (a root spring beside a memory of EI K_0: c = EI, W = the root-slope row): see ``low_rank``
+    memory_split: tuple[float, np.ndarray, np.ndarray] | None = None
 
     @property
     def size(self) -> int:
@@ -75,7 +82,9 @@ class SecondOrderSystem:
         diag_ok = _is_diagonal(self._modal_damping)
         if self.relaxation is None:
             return "diagonal" if diag_ok else "complex"
-        return "diagonal" if diag_ok and _is_diagonal(self._modal(self.K_h)) else "dense"
+        if diag_ok and _is_diagonal(self._modal(self.K_h)):
+            return "diagonal"
+        return "low_rank" if diag_ok and self.memory_split is not None else "dense"
 
     def static_stiffness(self) -> np.ndarray:
         """Stiffness at equilibrium, K - G(0) K_h (N/m in generalised coordinates)."""
@@ -106,6 +115,8 @@ class SecondOrderSystem:
         shape = (s.size, C.shape[0], B.shape[1])
         if self.form == "dense":
             return self._transfer_dense(s, C, B)
+        if self.form == "low_rank":
+            return self._transfer_low_rank(s, C, B)
         sections = self._diagonal_sections if self.form == "diagonal" else self._complex_sections
         den, beta, alpha = sections(C, B)
         g = None if self.relaxation is None else self.relaxation(s)
@@ -164,6 +175,38 @@ class SecondOrderSystem:
         cphi, phib = C @ phi, phi.T @ B
         z = self._modal_dynamic_stiffness(s)
         return np.einsum("om,fmi->foi", cphi, np.linalg.solve(z, np.broadcast_to(phib, (s.size,) + phib.shape)))
+
+    def _transfer_low_rank(self, s: np.ndarray, C: np.ndarray, B: np.ndarray) -> np.ndarray:
+        r"""The diagonal form plus a rank-r Woodbury correction, in the undamped modal coordinates.
+
+        With :math:`K = c K_h + W S W^T` and the modes of (K, M), :math:`\Phi^T K_h \Phi =
+        (\Lambda - V S V^T)/c` with :math:`V = \Phi^T W`, so that
+
+        .. math:: Z(s) = Z_0(s) + V T V^T, \quad Z_0 = \mathrm{diag}\big(s^2 + s\,d_m
+                  + \omega_m^2 (1 - \hat G/c)\big), \quad T = (\hat G/c)\, S,
+
+        .. math:: C Z^{-1} B = C Z_0^{-1} B - (C Z_0^{-1} V)\, T\, (I + V^T Z_0^{-1} V\, T)^{-1}
+                  (V^T Z_0^{-1} B) .
+
+        T is written on the right of the small solve so that it is never inverted (it vanishes
+        with G). The four modal sums are real sections of the diagonal form (:func:`_sum_sections`,
+        den [1, d_m, omega_m^2, omega_m^2/c]); then an r x r solve per frequency, against an n x n
+        one for the dense form.
+        """
+        lam, phi = self.undamped
+        c, w, weights = self.memory_split
+        v, cphi, phib = phi.T @ w, C @ phi, phi.T @ B
+        den = np.stack([np.ones(self.size), np.diag(self._modal_damping), lam, lam / c], axis=1)
+        pairs = [(cphi.T, phib), (cphi.T, v), (v, phib), (v, v)]
+        beta = np.hstack([(left[:, :, None] * right[:, None, :]).reshape(self.size, -1) for left, right in pairs])
+        g = self.relaxation(s)
+        sums = _sum_sections(s, den, beta, None, g)
+        parts = np.split(sums, np.cumsum([a.shape[1] * b.shape[1] for a, b in pairs])[:-1], axis=1)
+        h, p, q, rr = (x.reshape(s.size, a.shape[1], b.shape[1]) for x, (a, b) in zip(parts, pairs))
+        t = (g / c)[:, None] * weights
+        rt = rr * t[:, None, :]
+        rt[:, np.arange(t.shape[1]), np.arange(t.shape[1])] += 1.0
+        return h - p @ (t[:, :, None] * _small_solve(rt, q))
 
     def _modal_dynamic_stiffness(self, s: np.ndarray) -> np.ndarray:
         lam = self.undamped[0]
@@ -257,6 +300,12 @@ def _quadratic_eigenvalues(M, D, K) -> np.ndarray:
     n = M.shape[0]
     a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]])
     return np.linalg.eigvals(a)
+
+
+def _small_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Batched solve of (k, r, r) systems; for r = 1 a division (numpy's batched solve costs
+    about 1 ms for 8000 systems of size 1, most of a likelihood evaluation)."""
+    return b / a if a.shape[-1] == 1 else np.linalg.solve(a, b)
 
 
 def _is_diagonal(a: np.ndarray) -> bool:
