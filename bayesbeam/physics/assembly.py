@@ -101,3 +101,18 @@ class BeamOperators:
     def rows(self, x, deriv: int = 0) -> np.ndarray:
         """Point-evaluation rows: u(x_k) = rows[k] @ w for the coefficient vector w."""
         return self.basis.evaluate(x, deriv)
+
+    def point_matrix(self, x: float) -> np.ndarray:
+        """r r^T with r = B(x): the Galerkin matrix of a unit point mass at x (m from the clamp).
+
+        Cached per x: a point-mass effect asks for it on every likelihood call, and evaluating
+        the splines cost it more than the rest of its assembly.
+        """
+        if x not in self._point_matrices:
+            r = self.rows([x])[0]
+            self._point_matrices[x] = np.outer(r, r)
+        return self._point_matrices[x]
+
+    @cached_property
+    def _point_matrices(self) -> dict[float, np.ndarray]:
+        return {}

@@ -108,6 +108,22 @@ class FrequencyGrid:
         """exp(-sigma t_n), the input window."""
         return np.exp(-self.sigma * self.dt * np.arange(self.n))
 
+    def delay(self, tau: float) -> np.ndarray:
+        r"""The delay factor :math:`e^{-s\tau}` on every bin (tau in s).
+
+        With :math:`s_k = \sigma + i k\,\Delta\omega`, :math:`e^{-s_k\tau} = e^{-\sigma\tau} z^k`,
+        :math:`z = e^{-i\Delta\omega\tau}`; writing k = q m + j with m ~ sqrt(K), :math:`z^k =
+        (z^m)^q z^j` is the outer product of two short exact exponentials: two roundings per bin
+        (error < 3 eps) and 2 sqrt(K) complex exponentials instead of K (8200 bins: the delay had
+        cost 15 % of a simulation).
+        """
+        k = self.freq.size
+        m = int(np.ceil(np.sqrt(k)))
+        step = 2 * np.pi * (self.freq[1] - self.freq[0]) * tau
+        fine = np.exp(-1j * step * np.arange(m))
+        coarse = np.exp(-1j * step * m * np.arange(-(-k // m))) * np.exp(-self.sigma * tau)
+        return np.outer(coarse, fine).ravel()[:k]
+
     def spectrum(self, x: np.ndarray) -> np.ndarray:
         """Windowed DFT of samples x (n, ...) on all n_fft/2 + 1 bins of :attr:`freq` (x's units)."""
         return fft.rfft(x * self.damp.reshape((-1,) + (1,) * (x.ndim - 1)), self.n_fft, axis=0)

@@ -158,3 +158,17 @@ def test_first_order_hold_is_wrong(fs):
     _, a_hold = modelled(fs)
     assert rms(in_band(a_hold - accel, fs)) / rms(in_band(accel, fs)) > 0.03
     assert rms(a_hold - accel) / rms(accel) > 0.03
+
+
+@pytest.mark.parametrize("n, tau", [(8192, 1.46484e-4), (8192, 5e-3), (1000, 3.3e-4), (7, 1e-3)])
+def test_delay_factor_equals_the_exponential_on_every_bin(n, tau):
+    """FrequencyGrid.delay(tau) vs exp(-s tau) computed per bin: |difference| < 1e-13.
+
+    Both are within a few ulp of the exact factor (|e^{-s tau}| <= 1); the phase s tau reaches
+    pi fs tau = 32 rad at the largest delay of the prior (5 ms at 2048 Hz), whose argument rounding
+    (32 eps = 7e-15) both share. A wrong power or bin order would be off by O(1).
+    """
+    grid = FrequencyGrid(n, 1 / 2048)
+    expected = np.exp(-grid.s * tau)
+    assert grid.delay(tau).shape == expected.shape
+    assert np.max(np.abs(grid.delay(tau) - expected)) < 1e-13

@@ -5,8 +5,6 @@ with :math:`r = B(x_s)`. m_s in kg.
 """
 from typing import ClassVar
 
-import numpy as np
-
 from bayesbeam.physics.effects.base import Effect
 
 
@@ -18,5 +16,4 @@ class SensorMass(Effect):
     description = "point mass of the sensor at the first sensor's location"
 
     def mass(self, ops, values, setup):
-        r = ops.rows([setup.sensor_locations[0]])[0]
-        return values["m_s"] * np.outer(r, r)
+        return values["m_s"] * ops.point_matrix(setup.sensor_locations[0])
