@@ -115,3 +115,67 @@ def test_the_decay_screen_is_looser_than_the_maps_flag_and_counts_the_modes():
     assert amplitude_dependence(SimpleNamespace(modes=[_mode(0.03, 0.004)] * 4)) == set()   # 4e-3 > 0.01 / 4
     assert amplitude_dependence(SimpleNamespace(modes=[_mode(0.03, 0.004)])) == {"quadratic_drag"}
     assert amplitude_dependence(SimpleNamespace(modes=[_mode(None, None)])) == set()
+
+
+def _result(name, log_z, sd=0.1):
+    return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=sd))
+
+
+def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
+    """recheck_damping with compare's fits replaced by results of the given log evidences; returns
+    (DampingRecheck, the models compare was asked to fit)."""
+    import bayesbeam.diagnose as dg
+
+    asked = []
+
+    def fake_compare(rec, models, config, executor, log):
+        asked.extend(models)
+        return {m: _result(m, log_z[m]) for m in models}, None
+
+    def fake_summary(rec, results, seconds):
+        best = max(results, key=lambda m: results[m].evidence.log_z)
+        return {"best": best, "models": {m: {"log_evidence": r.evidence.log_z, "log_evidence_sd": 0.1,
+                                             "probability": float(m == best)} for m, r in results.items()}}
+
+    monkeypatch.setattr(dg, "compare", fake_compare)
+    monkeypatch.setattr(dg, "summarise_comparison", fake_summary)
+    return dg.recheck_damping(None, _result(current, log_z[current]), ("root_compliance",), dg.DiagnoseConfig(),
+                              None, None), asked
+
+
+def test_the_damping_recheck_switches_only_on_decisive_evidence(monkeypatch):
+    """paper_rootcomp_hammer's pattern: q2 won the first comparison because a root spring was missing;
+    with the spring in every model q1 must take over when it is decisively better (ln B > 5 by 3 sd),
+    and not when it is ahead by less. The diagnosis's own model is not refitted."""
+    from bayesbeam.diagnose import _recheck_sentence
+
+    log_z = {"q1+root_compliance": -100.0, "q2+root_compliance": -140.0, "q3+root_compliance": -101.0,
+             "air+root_compliance": -300.0, "strain_rate+root_compliance": -200.0}
+    recheck, asked = _recheck(monkeypatch, log_z)
+    assert "q2+root_compliance" not in asked and len(asked) == 4
+    assert recheck.switched and recheck.best == "q1+root_compliance"
+    assert "changes to q1+root_compliance" in _recheck_sentence(recheck)
+
+    log_z["q2+root_compliance"] = -104.0          # q1 ahead by 4 nats: not decisive
+    recheck, _ = _recheck(monkeypatch, log_z)
+    assert not recheck.switched and "q2+root_compliance is kept" in _recheck_sentence(recheck)
+    log_z["q2+root_compliance"] = -99.0           # the diagnosis's model stays the best
+    recheck, _ = _recheck(monkeypatch, log_z)
+    assert not recheck.switched and recheck.best == "q2+root_compliance"
+
+
+def test_the_recheck_leaves_out_models_that_cannot_carry_the_effects(monkeypatch):
+    """Drag (nonlinear) cannot go with q2's memory: the re-check fits the four others."""
+    from bayesbeam.diagnose import combinable
+
+    assert combinable("q1+quadratic_drag") and combinable("q2+root_compliance")
+    assert not combinable("q2+quadratic_drag")
+    import bayesbeam.diagnose as dg
+
+    log_z = {f"{m}+quadratic_drag": -100.0 - i for i, m in enumerate(dg.DEFAULT_MODELS)}
+    monkeypatch.setattr(dg, "compare", lambda rec, models, *a: ({m: _result(m, log_z[m]) for m in models}, None))
+    monkeypatch.setattr(dg, "summarise_comparison", lambda rec, results, s: {
+        "best": max(results, key=lambda m: results[m].evidence.log_z), "models": {}})
+    current = _result("q3+quadratic_drag", log_z["q3+quadratic_drag"])
+    recheck = dg.recheck_damping(None, current, ("quadratic_drag",), dg.DiagnoseConfig(), None, None)
+    assert set(recheck.results) == {f"{m}+quadratic_drag" for m in dg.DEFAULT_MODELS if m != "q2"}

@@ -286,6 +286,13 @@ def _candidates_section(d, summary) -> str:
     out.append(_decision_rule(summary["decision_rule"]))
     if summary["baseline_comparison"]:
         out.append("<h3>Baseline chosen by evidence</h3>" + _comparison_table(summary["baseline_comparison"]))
+    recheck = summary.get("damping_recheck")
+    if recheck:
+        out.append(f"<h3>Damping re-checked with {esc(' and '.join(recheck['effects']))}</h3>"
+                   "<p>The first comparison could not see the missing physics; the default damping models are "
+                   f"compared again, each with the added effects. Final damping: <b>{esc(recheck['best'] if recheck['switched'] else recheck['previous'])}</b>"
+                   f"{' (switched: decisive evidence)' if recheck['switched'] else ''}.</p>"
+                   + _comparison_table(recheck["models"]))
     return "".join(out)
 
 
@@ -334,7 +341,7 @@ def _decision_rule(rule) -> str:
 
 
 def _comparison_table(models) -> str:
-    rows = [[esc(m), f"{v['log_evidence']:.2f}", f"{v['probability']:.3g}"]
+    rows = [[esc(m), f"{v['log_evidence']:.2f} &plusmn; {v['log_evidence_sd']:.2f}", f"{v['probability']:.3g}"]
             for m, v in sorted(models.items(), key=lambda kv: -kv[1]["log_evidence"])]
     return table(["model", "log Z [nats]", "probability"], rows, highlight_first=True)
 
