@@ -403,6 +403,8 @@ def _low_rank_split(stiffness: np.ndarray, plain: np.ndarray) -> tuple[np.ndarra
     largest are rounding of a lower rank.
     """
     added = stiffness - plain
+    if not np.any(added):       # only mass was added: K is still EI K_0 and the form diagonal
+        return None
     values, vectors = np.linalg.eigh(added)
     keep = np.abs(values) > 1e-12 * np.max(np.abs(values), initial=0.0)
     if not 0 < keep.sum() <= MAX_SPLIT_RANK:
