@@ -12,6 +12,8 @@ import warnings
 
 import numpy as np
 
+from bayesbeam.inference.sampler import effective_sample_size
+
 #: posterior-predictive replicates stored with a fit
 N_PREDICTIVE = 200
 #: at most this many posterior draws get pointwise log-likelihood terms
@@ -88,7 +90,7 @@ def _stats(draws: np.ndarray, tau: float, n_walkers: int, n_steps: int, burn: in
     flat = draws.ravel()
     q05, q50, q95 = np.quantile(flat, [0.05, 0.5, 0.95])
     return {"mean": float(flat.mean()), "sd": float(flat.std(ddof=1)), "q05": float(q05), "q50": float(q50),
-            "q95": float(q95), "ess": float(n_walkers * (n_steps - burn) / tau) if tau > 0 else None,
+            "q95": float(q95), "ess": float(effective_sample_size(tau, n_walkers, n_steps, burn)) if tau > 0 else None,
             "tau": float(tau)}
 
 

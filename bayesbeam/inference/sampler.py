@@ -285,12 +285,23 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
         previous_tau = tau
     tau = sampler.get_autocorr_time(tol=0)
     tau_max = float(np.nanmax(tau)) if np.all(np.isfinite(tau)) else sampler.iteration / 10
-    burn = int(min(3 * tau_max, sampler.iteration // 2))
+    burn = burn_in(tau_max, sampler.iteration)
     thin = max(1, int(tau_max / 2))
     chain = sampler.get_chain(discard=burn, thin=thin)           # (draws, walkers, ndim)
     lp = sampler.get_log_prob(discard=burn, thin=thin)
     return Chains(np.swapaxes(chain, 0, 1), lp.T, tau, float(np.mean(sampler.acceptance_fraction)),
                   sampler.iteration, burn, thin, converged, reason, time.perf_counter() - started)
+
+
+def burn_in(tau_max: float, n_steps: int) -> int:
+    """Steps discarded from the start of a chain: three autocorrelation times, at most half of it."""
+    return int(min(3 * tau_max, n_steps // 2))
+
+
+def effective_sample_size(tau, n_walkers: int, n_steps: int, burn: int):
+    """ESS per parameter of an ensemble chain after ``burn``: n_walkers (n_steps - burn) / tau, with
+    tau emcee's integrated autocorrelation time (steps)."""
+    return n_walkers * (n_steps - burn) / np.asarray(tau, dtype=float)
 
 
 def initial_ball(post, optimum, n_walkers, rng):
