@@ -46,7 +46,8 @@ from bayesbeam.checks.discrepancy import ALPHA, Mismatch, locate
 from bayesbeam.checks.signatures import rank_effects
 from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
 from bayesbeam.compare import summarise as summarise_comparison
-from bayesbeam.model import resolve_model
+from bayesbeam.inference.priors import default_priors
+from bayesbeam.model import BeamModel, resolve_model
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
 DECISIVE = 5.0
@@ -84,6 +85,15 @@ class Trial:
     added: bool = False
 
 
+@dataclass(frozen=True)
+class NotFitted:
+    """A model the diagnosis would have fitted but did not, and why."""
+
+    round: int                      # 0 for the damping re-check
+    model: str
+    reason: str
+
+
 @dataclass
 class DampingRecheck:
     """The default damping models compared again, each with the effects the diagnosis added."""
@@ -93,6 +103,7 @@ class DampingRecheck:
     results: dict                   # model -> ModelResult (the diagnosis's own final model among them)
     previous: str                   # the final model before the re-check
     switched: bool                  # another damping model is now decisively better
+    not_fitted: list = field(default_factory=list)  # NotFitted (round 0): damping models left out
 
     @property
     def best(self) -> str:
@@ -112,6 +123,7 @@ class Diagnosis:
     comparison: dict | None         # compare's summary when the baseline was chosen by evidence
     seconds: float
     recheck: DampingRecheck | None = None   # the damping models again, with the added effects
+    not_fitted: list = field(default_factory=list)   # NotFitted: models left out, with the reason
 
     @property
     def added(self) -> list[str]:
@@ -157,14 +169,19 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     baseline, baseline_map = current, mismatch
     say(f"baseline {current.name}: RMS standardized residual {mismatch.rms_standardized_residual:.2f}, "
         f"{len(mismatch.regions)} mismatch region(s)")
-    rankings, trials = [], []
+    rankings, trials, not_fitted = [], [], []
     for round_ in range(1, config.rounds + 1):
         ranking = rank_effects(current.problem.posterior, _draws(current), mismatch)
         rankings.append(ranking)
         if not beam_regions(mismatch) and ranking.p_value >= ALPHA:
             say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")
             break
-        chosen = _candidates(ranking, mismatch, config.candidates)
+        chosen, left_out = _fittable(rec, current, _candidates(ranking, mismatch, config.candidates), round_)
+        not_fitted += left_out
+        for n in left_out:
+            say(f"round {round_}: not fitting {n.model}: {n.reason}")
+        if not chosen:
+            break
         say(f"round {round_}: fitting {', '.join(current.name + '+' + c.effect for c in chosen)}")
         fitted = _fit_augmented(rec, current, chosen, config, executor, log)
         round_trials = [_trial(round_, c.effect, current, mismatch, f, rng, config) for c, f in zip(chosen, fitted)]
@@ -182,11 +199,12 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
         recheck = recheck_damping(rec, current, added, config, executor, log)
+        not_fitted += recheck.not_fitted
         if recheck.switched:
             current = recheck.results[recheck.best]
             mismatch = _locate(current, rng, config)
     return Diagnosis(baseline, baseline_map, rankings, trials, current, mismatch, None if model else summary,
-                     time.perf_counter() - started, recheck)
+                     time.perf_counter() - started, recheck, not_fitted)
 
 
 def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log) -> DampingRecheck:
@@ -197,7 +215,14 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     """
     say = log or (lambda _text: None)
     specs = [f"{m}+{'+'.join(effects)}" for m in DEFAULT_MODELS]
-    others = [s for s in specs if s != current.name and combinable(s)]
+    known = current.problem.posterior.split(current.optimum.theta)[0]
+    others, left_out = [], []
+    for spec in (s for s in specs if s != current.name and combinable(s)):
+        why = too_slow(rec, spec, known)
+        if why:
+            left_out.append(NotFitted(0, spec, why))
+        else:
+            others.append(spec)
     say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}")
     started = time.perf_counter()
     results, _ = compare(rec, others, config.compare, executor, log)
@@ -209,7 +234,46 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     switched = best is not current and lbf - DECISIVE_SD * sd > DECISIVE
     say(f"damping re-check: best {best.name}" + (f", {lbf:.1f} +- {sd:.1f} nats above {current.name}: switched"
                                                  if switched else f"; {current.name} kept"))
-    return DampingRecheck(effects, summary, results, current.name, switched)
+    return DampingRecheck(effects, summary, results, current.name, switched, left_out)
+
+
+def too_slow(rec, spec: str, known: dict) -> str | None:
+    """Why ``spec`` is not fitted, or None: its transfer function needs the dense per-frequency
+    solve (a memory mechanism beside non-modal damping or beside an added stiffness of full rank,
+    such as q2 + axial_load), which costs a second per likelihood at the paper beam's N = 48, and
+    an SMC evidence days. Judged at ``known`` values and the default priors' medians for the rest
+    (the form does not depend on N; N = 6 here)."""
+    model = BeamModel(rec, spec, 6)
+    priors = default_priors(rec.beam, model.parameter_names, {})
+    values = {n: known[n] if n in known else float(priors[n].to_value(priors[n].median())) for n in model.parameter_names}
+    try:
+        form = model.system(values).form
+    except ValueError:              # not physical at these values: let the fit find out
+        return None
+    if form != "dense":
+        return None
+    return ("its memory mechanism sits beside non-modal damping or a full-rank added stiffness, so its "
+            "transfer function needs a dense solve per frequency (about 1 s per likelihood at N = 48): "
+            "fit it explicitly if it matters")
+
+
+def _fittable(rec, current, candidates: list, round_: int) -> tuple[list, list]:
+    """The candidates whose augmented model can be fitted, and a NotFitted for each of the rest."""
+    keep, left_out = [], []
+    for c in candidates:
+        spec = f"{current.name}+{c.effect}"
+        why = too_slow(rec, spec, _probe_values(current, c))
+        if why:
+            left_out.append(NotFitted(round_, spec, why))
+        else:
+            keep.append(c)
+    return keep, left_out
+
+
+def _probe_values(current, candidate) -> dict:
+    """The current model's optimum and the candidate's screened value (None: its prior median)."""
+    known = current.problem.posterior.split(current.optimum.theta)[0]
+    return known if candidate.value is None else {**known, candidate.parameter: candidate.value}
 
 
 def combinable(spec: str) -> bool:
@@ -331,6 +395,7 @@ def summarise(d: Diagnosis) -> dict:
                           "map_must_improve": "RMS standardized residual falls and flags do not grow",
                           "alpha": ALPHA},
         "baseline_comparison": None if d.comparison is None else _evidence_table(d.comparison),
+        "not_fitted": [{"round": n.round, "model": n.model, "reason": n.reason} for n in d.not_fitted],
         "damping_recheck": None if d.recheck is None else {
             "effects": list(d.recheck.effects), "best": d.recheck.best, "previous": d.recheck.previous,
             "switched": d.recheck.switched, "models": _evidence_table(d.recheck.summary)},
@@ -394,6 +459,8 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
                     f"from {d.baseline.evidence.log_z:.1f} to {d.final.evidence.log_z:.1f}.")
     else:
         text.append("No catalogue effect explains the mismatch.")
+    if d.not_fitted:
+        text.append("Not fitted: " + "; ".join(f"{n.model} ({n.reason})" for n in d.not_fitted) + ".")
     if d.recheck is not None:
         text.append(_recheck_sentence(d.recheck))
     if d.unexplained:

@@ -118,7 +118,9 @@ def test_the_decay_screen_is_looser_than_the_maps_flag_and_counts_the_modes():
 
 
 def _result(name, log_z, sd=0.1):
-    return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=sd))
+    posterior = SimpleNamespace(split=lambda theta: ({"EI": 44.0}, {}))
+    return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=sd),
+                           problem=SimpleNamespace(posterior=posterior), optimum=SimpleNamespace(theta=None))
 
 
 def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
@@ -139,6 +141,7 @@ def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
 
     monkeypatch.setattr(dg, "compare", fake_compare)
     monkeypatch.setattr(dg, "summarise_comparison", fake_summary)
+    monkeypatch.setattr(dg, "too_slow", lambda rec, spec, known: "dense" if spec.startswith("air+") else None)
     return dg.recheck_damping(None, _result(current, log_z[current]), ("root_compliance",), dg.DiagnoseConfig(),
                               None, None), asked
 
@@ -152,7 +155,8 @@ def test_the_damping_recheck_switches_only_on_decisive_evidence(monkeypatch):
     log_z = {"q1+root_compliance": -100.0, "q2+root_compliance": -140.0, "q3+root_compliance": -101.0,
              "air+root_compliance": -300.0, "strain_rate+root_compliance": -200.0}
     recheck, asked = _recheck(monkeypatch, log_z)
-    assert "q2+root_compliance" not in asked and len(asked) == 4
+    assert "q2+root_compliance" not in asked and len(asked) == 3     # and air+... was too slow:
+    assert [(n.round, n.model) for n in recheck.not_fitted] == [(0, "air+root_compliance")]
     assert recheck.switched and recheck.best == "q1+root_compliance"
     assert "changes to q1+root_compliance" in _recheck_sentence(recheck)
 
@@ -176,6 +180,35 @@ def test_the_recheck_leaves_out_models_that_cannot_carry_the_effects(monkeypatch
     monkeypatch.setattr(dg, "compare", lambda rec, models, *a: ({m: _result(m, log_z[m]) for m in models}, None))
     monkeypatch.setattr(dg, "summarise_comparison", lambda rec, results, s: {
         "best": max(results, key=lambda m: results[m].evidence.log_z), "models": {}})
+    monkeypatch.setattr(dg, "too_slow", lambda *args: None)
     current = _result("q3+quadratic_drag", log_z["q3+quadratic_drag"])
     recheck = dg.recheck_damping(None, current, ("quadratic_drag",), dg.DiagnoseConfig(), None, None)
     assert set(recheck.results) == {f"{m}+quadratic_drag" for m in dg.DEFAULT_MODELS if m != "q2"}
+
+
+@pytest.mark.parametrize("spec, slow", [("q2+axial_load", True), ("q2+root_compliance+axial_load", True),
+                                        ("q2+root_compliance", False), ("q2+sensor_mass", False),
+                                        ("q1+axial_load", False), ("q3+axial_load", False)])
+def test_models_that_need_the_dense_solve_are_not_fitted(spec, slow):
+    """Memory beside a full-rank added stiffness (an axial load's geometric stiffness) has no fast
+    modal form: a second per likelihood at the fitted N, so the diagnosis leaves it out and says why;
+    a root spring (rank 1) or a sensor mass keeps q2 fast, and models without memory are never slow."""
+    from bayesbeam.diagnose import too_slow
+
+    reason = too_slow(recording(None), spec, {})
+    assert (reason is not None) == slow
+    if slow:
+        assert "dense solve per frequency" in reason
+
+
+def test_a_round_fits_what_it_can_and_records_the_rest():
+    """From a q2 baseline an axial load (dense) is left out with its reason, a root spring is kept."""
+    from bayesbeam.diagnose import _fittable
+
+    current = _result("q2", -100.0)
+    current.problem.posterior.split = lambda theta: ({"EI": 44.0, "alpha": 0.05, "beta": 20.0}, {})
+    candidates = [SimpleNamespace(effect="axial_load", parameter="P", value=3.0),
+                  SimpleNamespace(effect="root_compliance", parameter="k_theta", value=None)]
+    keep, left_out = _fittable(recording(None), current, candidates, 1)
+    assert [c.effect for c in keep] == ["root_compliance"]
+    assert [(n.round, n.model) for n in left_out] == [(1, "q2+axial_load")]

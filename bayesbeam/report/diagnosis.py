@@ -283,6 +283,10 @@ def _candidates_section(d, summary) -> str:
     out.append("<h3>Augmented fits</h3>" + (trials_table(d) if d.trials else
                "<p>No augmented model was fitted: the baseline's map flags no beam physics and the projected "
                "mismatch is insignificant.</p>"))
+    if summary.get("not_fitted"):
+        out.append("<h3>Not fitted</h3>" + table(
+            ["round", "model", "why"], [["re-check" if n["round"] == 0 else str(n["round"]), esc(n["model"]),
+                                         esc(n["reason"])] for n in summary["not_fitted"]], text_columns=3))
     out.append(_decision_rule(summary["decision_rule"]))
     if summary["baseline_comparison"]:
         out.append("<h3>Baseline chosen by evidence</h3>" + _comparison_table(summary["baseline_comparison"]))

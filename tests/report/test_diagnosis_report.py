@@ -101,6 +101,30 @@ def test_candidates_and_decisions(report):
         assert "No augmented model was fitted" in part
 
 
+def test_models_not_fitted_and_the_damping_recheck_are_shown():
+    """Without --model the summary carries the damping re-check and the models left out; both get
+    a table in the candidates section (the cheap diagnoses were run with --model: fill them in)."""
+    from bayesbeam.report.diagnosis import render
+
+    d = diagnosed("root_compliance")
+    summary = d.to_dict()
+    assert summary["not_fitted"] == [] and summary["damping_recheck"] is None
+    summary["not_fitted"] = [{"round": 1, "model": "q2+axial_load", "reason": "dense solve"},
+                             {"round": 0, "model": "q2+root_compliance+axial_load", "reason": "dense solve"}]
+    summary["damping_recheck"] = {"effects": ["root_compliance"], "best": "q1+root_compliance",
+                                  "previous": "q2+root_compliance", "switched": True,
+                                  "models": {"q1+root_compliance": {"log_evidence": -10.0, "log_evidence_sd": 0.1,
+                                                                    "probability": 1.0},
+                                             "q2+root_compliance": {"log_evidence": -60.0, "log_evidence_sd": 0.1,
+                                                                    "probability": 0.0}}}
+    part = section(render(d, summary), "candidates")
+    rows = body_rows(part[part.index("<h3>Not fitted</h3>"):])
+    assert "q2+axial_load" in rows[0] and "re-check" in rows[1]
+    recheck = part[part.index("<h3>Damping re-checked with root_compliance</h3>"):]
+    assert "Final damping: <b>q1+root_compliance</b> (switched" in recheck
+    assert "q1+root_compliance" in body_rows(recheck)[0]
+
+
 def test_added_effect_posterior_names_k_theta(report):
     _, text, d = report
     part = section(text, "effect")
