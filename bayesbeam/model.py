@@ -34,7 +34,7 @@ from bayesbeam.response.linear import (
     unit_sample_responses,
 )
 from bayesbeam.response.signals import impact_window
-from bayesbeam.response.system import SecondOrderSystem, undamped_modes
+from bayesbeam.response.system import LOW_RANK_MAX, SecondOrderSystem, undamped_modes
 
 PARAMETER_UNITS = {"EI": "N m^2"}
 
@@ -188,9 +188,8 @@ class BeamModel:
         """:meth:`system` at values already checked by :meth:`values`."""
         damping, relaxation = self._damping(v)
         mass, stiffness, modes = self._mass_stiffness(v)
-        split = None if relaxation is None or modes is not None else _low_rank_split(stiffness, v["EI"] * self.ops.K0)
         system = SecondOrderSystem(mass, damping, stiffness, relaxation,
-                                   self.ops.K0 if relaxation else None, modes, (v["EI"], *split) if split else None)
+                                   self.ops.K0 if relaxation else None, modes, self._departures)
         if relaxation is not None:
             system.check_stable()
         return system
@@ -232,6 +231,28 @@ class BeamModel:
             return mass, stiffness, None
         lam0, phi0 = self._unit_modes
         return mass, stiffness, (v["EI"] * lam0, phi0)
+
+    @cached_property
+    def _departures(self) -> np.ndarray | None:
+        """Orthonormal directions (n, r) along which M and K depart from rho_a M_0 and EI K_0: the
+        tip body's and the effects' (see :attr:`SecondOrderSystem.departures`).
+
+        Each effect's matrix scales with its parameter, so the directions are parameter-free:
+        found once, with every effect at unit values. None when some mechanism's damping is not
+        a combination of M_0 and K_0 (then the bare modes do not diagonalise it), when nothing
+        departs, or when the rank exceeds what the ``low_rank`` form takes (an axial load's
+        geometric stiffness has full rank).
+        """
+        if not all(m.bare_modal for m in self.mechanisms):
+            return None
+        ops, unit = self.ops, {p: 1.0 for e in self.effects for p in e.parameters}
+        blocks = [ops.M - ops.rho_a * ops.M0]
+        for e in self.effects:
+            blocks += [b for b in (e.mass(ops, unit, self.setup), e.stiffness(ops, unit, self.setup))
+                       if b is not None]
+        u, sv, _ = np.linalg.svd(np.hstack(blocks), full_matrices=False)
+        rank = int(np.sum(sv > 1e-12 * sv[0])) if sv[0] > 0 else 0
+        return u[:, :rank] if 0 < rank <= LOW_RANK_MAX else None
 
     @cached_property
     def _unit_modes(self) -> tuple[np.ndarray, np.ndarray]:
@@ -388,28 +409,6 @@ class BeamModel:
             return None
         use = True if force_window is None else bool(force_window)
         return rec.force * impact_window(rec.force) if use else rec.force
-
-
-#: largest rank of the effects' added stiffness for the ``low_rank`` transfer form
-MAX_SPLIT_RANK = 4
-
-
-def _low_rank_split(stiffness: np.ndarray, plain: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """(W, S) with stiffness - plain = W diag(S) W^T when that rank is at most MAX_SPLIT_RANK.
-
-    The memory acts on EI K_0 only; a root spring adds a rank-1 stiffness beside it, which keeps a
-    model with memory off the slow dense transfer form (see
-    :class:`~bayesbeam.response.system.SecondOrderSystem`). Eigenvalues below 1e-12 of the
-    largest are rounding of a lower rank.
-    """
-    added = stiffness - plain
-    if not np.any(added):       # only mass was added: K is still EI K_0 and the form diagonal
-        return None
-    values, vectors = np.linalg.eigh(added)
-    keep = np.abs(values) > 1e-12 * np.max(np.abs(values), initial=0.0)
-    if not 0 < keep.sum() <= MAX_SPLIT_RANK:
-        return None
-    return vectors[:, keep], values[keep]
 
 
 def _null_vector(system: SecondOrderSystem, p: complex) -> np.ndarray:

@@ -18,11 +18,14 @@ exact modal forms:
     no memory term, general :math:`D` (spatial hysteresis, air with a tip body): the complex
     eigenvalues :math:`p_j` of the first-order form give :math:`\sum_j R_j/(s - p_j)`.
 ``low_rank``
-    memory term, diagonal modal damping and a stiffness :math:`K = c K_h + W S W^T` that differs
-    from a multiple of the memory stiffness by a term of small rank r (a root spring: r = 1): the
-    diagonal form plus an r x r Woodbury correction per frequency (:meth:`SecondOrderSystem._transfer_low_rank`).
+    M and K depart from a pair whose modes diagonalise D and K_h (the bare beam's M_0, K_0 for
+    air, strain-rate and time-hysteresis damping) along r directions W (r <= 2 with a memory
+    term, else r = 1): a tip body, a sensor mass, a root spring. In the modes of (K, M), D and K_h are diagonal plus rank r, and a
+    Woodbury correction of the diagonal form per frequency is exact
+    (:meth:`SecondOrderSystem._transfer_low_rank`).
 ``dense``
-    any other memory term: a batched solve in modal coordinates per frequency (100 times slower).
+    any other memory term (an axial load's full-rank geometric stiffness beside time hysteresis):
+    a batched solve in modal coordinates per frequency (50-500 times slower).
 
 The first two are sums of real second-order sections (:func:`_sum_sections`), the hot loop of
 every simulation: 85 % of ``BeamModel.simulate``.
@@ -38,6 +41,9 @@ import numpy as np
 from scipy.linalg import lapack
 
 _DIAGONAL_TOL = 1e-10
+#: largest number of departing directions of the ``low_rank`` form (its per-frequency algebra is
+#: written out for r <= 2)
+LOW_RANK_MAX = 2
 #: sections x frequencies per block of :func:`_sum_sections`: its four float64 temporaries
 #: (1 MB) stay in the L2 cache; unblocked they spill and the sum runs 2-3x slower
 _BLOCK = 1 << 15
@@ -55,9 +61,9 @@ class SecondOrderSystem:
     K_h: np.ndarray | None = None
     #: the undamped eigenpairs (omega^2, Phi) when the caller already knows them
     modes: tuple[np.ndarray, np.ndarray] | None = None
-    #: (c, W, S) with K = c K_h + W diag(S) W^T, W of few columns, when the caller knows it
-    #: (a root spring beside a memory of EI K_0: c = EI, W = the root-slope row): see ``low_rank``
-    memory_split: tuple[float, np.ndarray, np.ndarray] | None = None
+    #: W (n, r): directions along which M and K depart from a pair whose undamped modes
+    #: diagonalise D and K_h, when the caller knows them (see ``low_rank``; verified here)
+    departures: np.ndarray | None = None
 
     @property
     def size(self) -> int:
@@ -80,11 +86,27 @@ class SecondOrderSystem:
     def form(self) -> str:
         """Which modal form evaluates the transfer function exactly (see module docstring)."""
         diag_ok = _is_diagonal(self._modal_damping)
-        if self.relaxation is None:
-            return "diagonal" if diag_ok else "complex"
-        if diag_ok and _is_diagonal(self._modal(self.K_h)):
+        if diag_ok and (self.relaxation is None or _is_diagonal(self._modal(self.K_h))):
             return "diagonal"
-        return "low_rank" if diag_ok and self.memory_split is not None else "dense"
+        if self._low_rank is not None:
+            return "low_rank"
+        return "complex" if self.relaxation is None else "dense"
+
+    @cached_property
+    def _low_rank(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """(V, S_D, S_H) with V = Phi^T W and Phi^T D Phi - V S_D V^T, Phi^T K_h Phi - V S_H V^T
+        diagonal (S_H zero without memory); None when :attr:`departures` are not given, exceed
+        rank :data:`LOW_RANK_MAX` (rank 1 without memory: there the complex modes cost less than
+        the rank-2 algebra, 5 against 9-12 ms on the aluminium strip's tip body), or do not make
+        both diagonal."""
+        w = self.departures
+        if w is None or not 0 < w.shape[1] <= (LOW_RANK_MAX if self.relaxation is not None else 1):
+            return None
+        v = self.undamped[1].T @ w
+        s_d = _diagonal_plus_low_rank(self._modal_damping, v)
+        s_h = (np.zeros_like(s_d) if self.relaxation is None or s_d is None
+               else _diagonal_plus_low_rank(self._modal(self.K_h), v))
+        return None if s_d is None or s_h is None else (v, s_d, s_h)
 
     def static_stiffness(self) -> np.ndarray:
         """Stiffness at equilibrium, K - G(0) K_h (N/m in generalised coordinates)."""
@@ -179,34 +201,37 @@ class SecondOrderSystem:
     def _transfer_low_rank(self, s: np.ndarray, C: np.ndarray, B: np.ndarray) -> np.ndarray:
         r"""The diagonal form plus a rank-r Woodbury correction, in the undamped modal coordinates.
 
-        With :math:`K = c K_h + W S W^T` and the modes of (K, M), :math:`\Phi^T K_h \Phi =
-        (\Lambda - V S V^T)/c` with :math:`V = \Phi^T W`, so that
+        With :math:`\Phi^T D \Phi = \mathrm{diag}(d) + V S_D V^T` and :math:`\Phi^T K_h \Phi =
+        \mathrm{diag}(h) + V S_H V^T` (:attr:`_low_rank`),
 
-        .. math:: Z(s) = Z_0(s) + V T V^T, \quad Z_0 = \mathrm{diag}\big(s^2 + s\,d_m
-                  + \omega_m^2 (1 - \hat G/c)\big), \quad T = (\hat G/c)\, S,
+        .. math:: Z(s) = Z_0(s) + V T(s) V^T, \quad Z_0 = \mathrm{diag}\big(s^2 + s\,d_m
+                  + \omega_m^2 - \hat G(s)\, h_m\big), \quad T = s\,S_D - \hat G(s)\, S_H,
 
         .. math:: C Z^{-1} B = C Z_0^{-1} B - (C Z_0^{-1} V)\, T\, (I + V^T Z_0^{-1} V\, T)^{-1}
                   (V^T Z_0^{-1} B) .
 
-        T is written on the right of the small solve so that it is never inverted (it vanishes
-        with G). The four modal sums are real sections of the diagonal form (:func:`_sum_sections`,
-        den [1, d_m, omega_m^2, omega_m^2/c]); then an r x r solve per frequency, against an n x n
-        one for the dense form.
+        T stands on the right of the small solve so that it is never inverted (it vanishes with
+        the damping and the memory). The four modal sums are real sections of the diagonal form
+        (:func:`_sum_sections`); the r x r algebra per frequency is written out (r <= 2: numpy's
+        batched solve of 8000 tiny systems costs milliseconds).
         """
         lam, phi = self.undamped
-        c, w, weights = self.memory_split
-        v, cphi, phib = phi.T @ w, C @ phi, phi.T @ B
-        den = np.stack([np.ones(self.size), np.diag(self._modal_damping), lam, lam / c], axis=1)
+        v, s_d, s_h = self._low_rank
+        d = np.diag(self._modal_damping - v @ s_d @ v.T)
+        cphi, phib = C @ phi, phi.T @ B
+        g = None if self.relaxation is None else self.relaxation(s)
+        den = np.stack([np.ones(self.size), d, lam], axis=1)
+        if g is not None:
+            den = np.hstack([den, np.diag(self._modal(self.K_h) - v @ s_h @ v.T)[:, None]])
         pairs = [(cphi.T, phib), (cphi.T, v), (v, phib), (v, v)]
         beta = np.hstack([(left[:, :, None] * right[:, None, :]).reshape(self.size, -1) for left, right in pairs])
-        g = self.relaxation(s)
-        sums = _sum_sections(s, den, beta, None, g)
-        parts = np.split(sums, np.cumsum([a.shape[1] * b.shape[1] for a, b in pairs])[:-1], axis=1)
+        parts = np.split(_sum_sections(s, den, beta, None, g),
+                         np.cumsum([a.shape[1] * b.shape[1] for a, b in pairs])[:-1], axis=1)
         h, p, q, rr = (x.reshape(s.size, a.shape[1], b.shape[1]) for x, (a, b) in zip(parts, pairs))
-        t = (g / c)[:, None] * weights
-        rt = rr * t[:, None, :]
-        rt[:, np.arange(t.shape[1]), np.arange(t.shape[1])] += 1.0
-        return h - p @ (t[:, :, None] * _small_solve(rt, q))
+        t = s[:, None, None] * s_d if g is None else s[:, None, None] * s_d - g[:, None, None] * s_h
+        capacitance = _small_product(rr, t)
+        capacitance[:, np.arange(v.shape[1]), np.arange(v.shape[1])] += 1.0
+        return h - _small_product(p, _small_product(t, _small_solve(capacitance, q)))
 
     def _modal_dynamic_stiffness(self, s: np.ndarray) -> np.ndarray:
         lam = self.undamped[0]
@@ -307,10 +332,35 @@ def _quadratic_eigenvalues(M, D, K) -> np.ndarray:
     return np.linalg.eigvals(a)
 
 
+def _small_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a @ b for stacks (k, m, r) and (k, r, c) with small r, as r broadcast products (numpy's
+    batched matmul of tiny matrices is slower)."""
+    return sum(a[:, :, j, None] * b[:, None, j, :] for j in range(a.shape[2]))
+
+
 def _small_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Batched solve of (k, r, r) systems; for r = 1 a division (numpy's batched solve costs
-    about 1 ms for 8000 systems of size 1, most of a likelihood evaluation)."""
-    return b / a if a.shape[-1] == 1 else np.linalg.solve(a, b)
+    """Solve the stack of (k, r, r) systems a x = b for r <= 2: a division, or Cramer's rule."""
+    if a.shape[-1] == 1:
+        return b / a
+    det = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
+    x0 = (a[:, 1, 1, None] * b[:, 0] - a[:, 0, 1, None] * b[:, 1]) / det[:, None]
+    x1 = (a[:, 0, 0, None] * b[:, 1] - a[:, 1, 0, None] * b[:, 0]) / det[:, None]
+    return np.stack([x0, x1], axis=1)
+
+
+def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> np.ndarray | None:
+    """Symmetric S (r, r) with a - v S v^T diagonal (to the tolerance of :func:`_is_diagonal`), or None.
+
+    S from the off-diagonal entries by least squares: a_ij = sum_kl v_ik S_kl v_jl for i < j.
+    """
+    n, r = v.shape
+    i, j = np.triu_indices(n, 1)
+    k, m = np.triu_indices(r)
+    coef = v[i][:, k] * v[j][:, m] + np.where(k != m, v[i][:, m] * v[j][:, k], 0.0)
+    x = np.linalg.lstsq(coef, a[i, j], rcond=None)[0]
+    s = np.zeros((r, r))
+    s[k, m] = s[m, k] = x
+    return s if _is_diagonal(a - v @ s @ v.T) else None
 
 
 def _is_diagonal(a: np.ndarray) -> bool:

@@ -26,6 +26,10 @@ class Mechanism(Component):
 
     #: a memory term (``relaxation``): no finite state space, so no nonlinear time stepping
     hereditary = False
+    #: the damping matrix (if any) is a combination of the bare beam's M_0 and K_0, and a memory
+    #: acts on K_0: the bare beam's modes diagonalise both, so a tip body or an effect departs
+    #: from modal form only by a low rank (the ``low_rank`` transfer form)
+    bare_modal = True
 
     def damping(self, ops: BeamOperators, values: Mapping[str, float]) -> np.ndarray | None:
         """Viscous damping matrix D_m (N s/m in generalized coordinates), or None."""

@@ -153,6 +153,7 @@ def kernel(x: np.ndarray, xi: np.ndarray, a: float, b: float) -> np.ndarray:
 
 class SpatialHysteresis(Mechanism):
     name = "spatial_hysteresis"
+    bare_modal = False      # a Gaussian-kernel integral operator, not a combination of M_0 and K_0
     parameters = ("a", "b")
     units = {"a": "N s", "b": "m"}
     description = "spatial hysteresis, Gaussian kernel h = a/(b sqrt(2 pi)) exp(-(x-xi)^2/(2 b^2))"
