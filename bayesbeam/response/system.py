@@ -349,17 +349,22 @@ def _small_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> np.ndarray | None:
-    """Symmetric S (r, r) with a - v S v^T diagonal (to the tolerance of :func:`_is_diagonal`), or None.
+    r"""Symmetric S (r, r) with a - v S v^T diagonal (to the tolerance of :func:`_is_diagonal`), or None.
 
-    S from the off-diagonal entries by least squares: a_ij = sum_kl v_ik S_kl v_jl for i < j.
+    S minimises :math:`\sum_{i\ne j} (a_{ij} - v_i^T S v_j)^2` (rows :math:`v_i` of v), whose
+    normal equations :math:`G S G - \sum_i w_i S w_i = V^T A_{off} V` (:math:`G = V^T V`,
+    :math:`w_i = v_i v_i^T`) are, row-major, the r^2 x r^2 system
+    :math:`(G \otimes G - U^T U)\,\mathrm{vec}\,S = \mathrm{vec}(V^T A_{off} V)` with rows
+    :math:`v_i \otimes v_i` of U: O(n^2 r) work, no n^2-row least squares.
     """
     n, r = v.shape
-    i, j = np.triu_indices(n, 1)
-    k, m = np.triu_indices(r)
-    coef = v[i][:, k] * v[j][:, m] + np.where(k != m, v[i][:, m] * v[j][:, k], 0.0)
-    x = np.linalg.lstsq(coef, a[i, j], rcond=None)[0]
-    s = np.zeros((r, r))
-    s[k, m] = s[m, k] = x
+    off = a - np.diag(np.diag(a))
+    if not np.any(off):                 # already diagonal (no damping, say): S = 0
+        return np.zeros((r, r))
+    g = v.T @ v
+    u = (v[:, :, None] * v[:, None, :]).reshape(n, r * r)
+    s = np.linalg.solve(np.kron(g, g) - u.T @ u, (v.T @ off @ v).ravel()).reshape(r, r)
+    s = 0.5 * (s + s.T)
     return s if _is_diagonal(a - v @ s @ v.T) else None
 
 
