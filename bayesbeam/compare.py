@@ -225,7 +225,10 @@ def verdict(ranking, models) -> str:
     if failed:
         text.append(f"But the best model does not reproduce everything in the recording: posterior "
                     f"predictive p < 0.01 for {', '.join(failed)}. Something the models leave out "
-                    f"remains (see the per-mode table and residual spectrum).")
+                    f"remains (see the per-mode table and residual spectrum), and a damping model "
+                    f"can win by imitating part of it: the ranking is not a verdict on the mechanism "
+                    f"until that is found. `bayesbeam diagnose` locates it, names the missing physics "
+                    f"from its catalogue and compares the damping models again with it.")
     else:
         text.append("Its posterior predictive checks pass (every p-value >= 0.01): the recording looks "
                     "like the model's own replicates.")

@@ -74,3 +74,19 @@ def test_true_parameters_lie_in_the_90_percent_intervals(comparisons):
 
 def test_kass_raftery_words():
     assert strength(6.0) == "very strong" and strength(0.2).startswith("not worth")
+
+
+def test_a_verdict_whose_best_model_fails_its_checks_points_to_the_diagnosis():
+    """paper_rootcomp_hammer's case: the winner (q2) fails its checks because a root spring is
+    missing; the verdict must not read as a finding about the mechanism, and must say what to run."""
+    from bayesbeam.compare import verdict
+
+    def entry(log_z, p_value):
+        return {"mechanisms": ["time_hysteresis"], "effects": [], "probability": 1.0, "log_evidence": log_z,
+                "log_evidence_sd": 0.1, "log_bayes_factor_vs_best": log_z + 1225.0,
+                "ppc": {"ljung_box": {"p_value": p_value}}}
+
+    failing = verdict(["q2", "q1"], {"q2": entry(-1225.0, 1e-5), "q1": entry(-1586.0, 1e-6)})
+    assert "ljung_box" in failing and "not a verdict on the mechanism" in failing and "bayesbeam diagnose" in failing
+    passing = verdict(["q2", "q1"], {"q2": entry(-1225.0, 0.4), "q1": entry(-1586.0, 1e-6)})
+    assert "checks pass" in passing and "diagnose" not in passing
