@@ -386,7 +386,8 @@ def summarise(d: Diagnosis) -> dict:
         "unexplained": d.unexplained,
         "unexplained_regions": d.remaining(),
         "not_beam_physics": [r for r in d.final_mismatch.regions if r.get("beam_physics") is False],
-        "final": {**_model_entry(final, d.final_mismatch), "mismatch": d.final_mismatch.regions},
+        "final": {**_model_entry(final, d.final_mismatch), "mismatch": d.final_mismatch.regions,
+                  "parameters": posterior_summary(final)},
         "summary": paragraph(d, [c["parameters"] for c in candidates]),
         "rankings": [{"round": i + 1, "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "notes": r.notes,
                       "candidates": [c.to_dict() for c in r.candidates]} for i, r in enumerate(d.rankings)],
@@ -475,9 +476,13 @@ def _recheck_sentence(r: DampingRecheck) -> str:
     best, previous = models[r.best], models[r.previous]
     head = f"With {' and '.join(r.effects)} modelled, the default damping models were compared again: "
     if r.switched:
+        final = r.results[r.best]
+        names = {p for e in final.problem.model.effects for p in e.parameters}
+        estimates = ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
+                              for k, v in posterior_summary(final).items() if k in names)
         return (head + f"{r.best} is preferred over {r.previous} by {best['log_evidence'] - previous['log_evidence']:.1f} "
                 f"nats (decisive), so the damping verdict changes to {r.best}: the first comparison was misled "
-                f"by the missing physics.")
+                f"by the missing physics. In {r.best}: {estimates}.")
     if r.best == r.previous:
         return head + f"{r.previous} stays the best (posterior probability {previous['probability']:.3f})."
     return (head + f"{r.best} scores {best['log_evidence'] - previous['log_evidence']:.1f} nats above {r.previous}, "

@@ -86,6 +86,9 @@ def test_diagnosis_json_has_the_issue_layout():
     assert candidate["effect"] == "root_compliance" and candidate["delta_log_evidence"] > DECISIVE
     assert {"mean", "q05", "q95"} <= set(candidate["parameters"]["k_theta"])
     assert summary["final"]["model"] == "q1+root_compliance"
+    # the final model's whole posterior: after a damping re-check it is not any trial's
+    assert {"EI", "gamma", "cdI", "k_theta"} <= set(summary["final"]["parameters"])
+    assert summary["final"]["parameters"]["k_theta"] == candidate["parameters"]["k_theta"]
 
 
 def _map(rms, cells=0, mode_flags=(), delay=False):
@@ -140,8 +143,9 @@ def test_the_decay_screen_is_looser_than_the_maps_flag_and_counts_the_modes():
 
 def _result(name, log_z, sd=0.1):
     posterior = SimpleNamespace(split=lambda theta: ({"EI": 44.0}, {}))
+    model = SimpleNamespace(effects=[SimpleNamespace(parameters=("k_theta",))])
     return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=sd),
-                           problem=SimpleNamespace(posterior=posterior), optimum=SimpleNamespace(theta=None))
+                           problem=SimpleNamespace(posterior=posterior, model=model), optimum=SimpleNamespace(theta=None))
 
 
 def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
@@ -163,6 +167,8 @@ def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
     monkeypatch.setattr(dg, "compare", fake_compare)
     monkeypatch.setattr(dg, "summarise_comparison", fake_summary)
     monkeypatch.setattr(dg, "too_slow", lambda rec, spec, known: "dense" if spec.startswith("air+") else None)
+    monkeypatch.setattr(dg, "posterior_summary", lambda result: {
+        "EI": {"mean": 44.0}, "k_theta": {"mean": 3500.0, "unit": "N m/rad", "q05": 3400.0, "q95": 3600.0}})
     return dg.recheck_damping(None, _result(current, log_z[current]), ("root_compliance",), dg.DiagnoseConfig(),
                               None, None), asked
 
@@ -179,7 +185,8 @@ def test_the_damping_recheck_switches_only_on_decisive_evidence(monkeypatch):
     assert "q2+root_compliance" not in asked and len(asked) == 3     # and air+... was too slow:
     assert [(n.round, n.model) for n in recheck.not_fitted] == [(0, "air+root_compliance")]
     assert recheck.switched and recheck.best == "q1+root_compliance"
-    assert "changes to q1+root_compliance" in _recheck_sentence(recheck)
+    sentence = _recheck_sentence(recheck)
+    assert "changes to q1+root_compliance" in sentence and "k_theta = 3500 N m/rad (90 %: 3400 to 3600)" in sentence
 
     log_z["q2+root_compliance"] = -104.0          # q1 ahead by 4 nats: not decisive
     recheck, _ = _recheck(monkeypatch, log_z)

@@ -1,5 +1,6 @@
 """Write a diagnosis's outputs: diagnosis.json, report.html and posteriors/<model>.nc (baseline,
-every augmented model tried), each under a temporary name renamed into place."""
+every augmented model tried, every model of the damping re-check), each under a temporary name
+renamed into place."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,7 +14,8 @@ def write_diagnosis(diagnosis, summary: dict, out_dir) -> list[Path]:
     """Write the outputs of ``diagnosis`` and its summary ``diagnosis.to_dict()``."""
     out = Path(out_dir)
     (out / "posteriors").mkdir(parents=True, exist_ok=True)
-    results = {r.name: r for r in (diagnosis.baseline, *(t.result for t in diagnosis.trials))}
+    recheck = diagnosis.recheck.results.values() if diagnosis.recheck else ()
+    results = {r.name: r for r in (diagnosis.baseline, *(t.result for t in diagnosis.trials), *recheck)}
     written = [write_netcdf(inference_data(r), out / "posteriors" / f"{posterior_file_name(m)}.nc")
                for m, r in results.items()]
     written.append(write_report(diagnosis, summary, out / "report.html"))

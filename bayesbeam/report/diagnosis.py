@@ -365,7 +365,21 @@ def _effect_section(d, summary) -> str:
                    + figure(effect_posterior_plot(t, parameters, signature), f"posterior of {t.effect}", caption))
     if d.trials:
         out.append("<h3>Effect parameters of every augmented fit</h3>" + effect_table(d, summary))
+    if d.recheck is not None and d.recheck.switched:
+        out.append(f"<h3>Final model {esc(d.final.name)} (after the damping re-check)</h3>"
+                   "<p>The effect's estimate in the augmented model above was made with the damping model the "
+                   "first comparison chose; with the damping the re-check chose, it reads:</p>"
+                   + parameter_table(summary["final"]["parameters"]))
     return "".join(out)
+
+
+def parameter_table(parameters: dict) -> str:
+    """Posterior summary of every parameter of a model (diagnosis.json's ``final.parameters``)."""
+    rows = [[esc(name), esc(q["unit"]), f"{q['q50']:.4g}", _interval([q["q05"], q["q95"]]),
+             f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}", flag(f"{q['r_hat']:.3f}", round(q["r_hat"], 3) > RHAT_FLAG)]
+            for name, q in parameters.items()]
+    return table(["parameter", "unit", "posterior median", "90% interval", "mean &plusmn; sd", "R-hat"], rows,
+                 text_columns=2)
 
 
 def effect_posterior_plot(trial, summary: dict, signature):

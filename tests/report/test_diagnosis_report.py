@@ -123,6 +123,13 @@ def test_models_not_fitted_and_the_damping_recheck_are_shown():
     recheck = part[part.index("<h3>Damping re-checked with root_compliance</h3>"):]
     assert "Final damping: <b>q1+root_compliance</b> (switched" in recheck
     assert "q1+root_compliance" in body_rows(recheck)[0]
+    # a switched re-check shows the final model's posterior (its effect estimate is no trial's)
+    from dataclasses import replace
+    from types import SimpleNamespace
+
+    effect = section(render(replace(d, recheck=SimpleNamespace(switched=True)), summary), "effect")
+    final = effect[effect.index(f"<h3>Final model {d.final.name} (after the damping re-check)</h3>"):]
+    assert [r.split("</td>")[0] for r in body_rows(final)] == [f'<td class="text">{n}' for n in summary["final"]["parameters"]]
 
 
 def test_added_effect_posterior_names_k_theta(report):
