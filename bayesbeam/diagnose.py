@@ -449,8 +449,7 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     for t, summary in zip(d.trials, parameters):
         params = ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
                            for k, v in summary.items())
-        verdict = "added" if t.added else "not added: " + (
-            "the evidence is not decisive" if not t.decisive else "the mismatch map does not improve")
+        verdict = "added" if t.added else "not added: " + _refusal(t, d.trials)
         text.append(f"Round {t.round}, {t.effect}: log Bayes factor {t.log_bayes_factor:.1f} +- "
                     f"{t.log_bayes_factor_sd:.2g} nats against {d.chain()[t.round - 1][0].name}, RMS standardized residual "
                     f"{t.mismatch.rms_standardized_residual:.2f}, {flags(t.mismatch)} flag(s); {params}: {verdict}.")
@@ -469,6 +468,16 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
             f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz, {r['time_s'][0]:.3g}-{r['time_s'][1]:.3g} s on "
             f"{r['sensor']} ({r['note']})" for r in d.remaining()) + ".")
     return " ".join(text)
+
+
+def _refusal(trial: Trial, trials: list) -> str:
+    """Why a fitted candidate was not added, in words."""
+    if not trial.decisive:
+        return "the evidence is not decisive"
+    if not trial.improved:
+        return "the mismatch map does not improve"
+    winner = next(t for t in trials if t.round == trial.round and t.added)
+    return f"it passes, but {winner.effect} has the larger log Bayes factor ({winner.log_bayes_factor:.1f} nats)"
 
 
 def _recheck_sentence(r: DampingRecheck) -> str:

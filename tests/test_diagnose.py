@@ -240,3 +240,20 @@ def test_a_round_fits_what_it_can_and_records_the_rest():
     keep, left_out = _fittable(recording(None), current, candidates, 1)
     assert [c.effect for c in keep] == ["root_compliance"]
     assert [(n.round, n.model) for n in left_out] == [(1, "q2+axial_load")]
+
+
+def test_a_passing_candidate_that_lost_to_a_better_one_is_said_to_have_lost():
+    """paper_quadratic_drag's round 1: a root spring passed (ln B 25, map improved) but drag won
+    (ln B 101); the paragraph must not say the spring's map did not improve."""
+    from bayesbeam.diagnose import _refusal
+
+    def trial(effect, lbf, decisive=True, improved=True, added=False):
+        return SimpleNamespace(round=1, effect=effect, log_bayes_factor=lbf, decisive=decisive, improved=improved,
+                               added=added)
+
+    trials = [trial("root_compliance", 25.3), trial("quadratic_drag", 101.1, added=True),
+              trial("sensor_mass", 12.3, improved=False), trial("axial_load", -8.0, decisive=False)]
+    assert _refusal(trials[0], trials) == ("it passes, but quadratic_drag has the larger log Bayes factor "
+                                           "(101.1 nats)")
+    assert _refusal(trials[2], trials) == "the mismatch map does not improve"
+    assert _refusal(trials[3], trials) == "the evidence is not decisive"
