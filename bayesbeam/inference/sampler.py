@@ -218,6 +218,12 @@ def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4
         return np.diag(np.where(diag > 0, 1.0 / np.maximum(diag, 1e-300), 1e-6))
 
 
+#: the optimisers' value where the log posterior is not finite: below any real log posterior, and
+#: small enough that SciPy's differential evolution can square it in its convergence test (np.std
+#: of a population holding -1e300 overflowed, with a RuntimeWarning)
+_NOT_FINITE = -1e150
+
+
 class _Counter:
     def __init__(self, f):
         self.f, self.calls = f, 0
@@ -225,7 +231,7 @@ class _Counter:
     def __call__(self, x):
         self.calls += 1
         value = self.f(x)
-        return value if np.isfinite(value) else -1e300
+        return value if np.isfinite(value) else _NOT_FINITE
 
 
 def _say(log, text):
