@@ -20,9 +20,9 @@ exact modal forms:
 ``low_rank``
     M and K depart from a pair whose modes diagonalise D and K_h (the bare beam's M_0, K_0 for
     air, strain-rate and time-hysteresis damping) along r directions W (r <= 2 with a memory
-    term, else r = 1): a tip body, a sensor mass, a root spring. In the modes of (K, M), D and K_h are diagonal plus rank r, and a
-    Woodbury correction of the diagonal form per frequency is exact
-    (:meth:`SecondOrderSystem._transfer_low_rank`).
+    term, else r = 1): a tip body, a sensor mass, a root spring. In the modes of (K, M), D and
+    K_h are diagonal plus rank r, and a Woodbury correction of the diagonal form per frequency
+    is exact (:meth:`SecondOrderSystem._transfer_low_rank`).
 ``dense``
     any other memory term (an axial load's full-rank geometric stiffness beside time hysteresis):
     a batched solve in modal coordinates per frequency (50-500 times slower).
@@ -36,6 +36,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import lapack
@@ -48,6 +49,16 @@ LOW_RANK_MAX = 2
 #: (1 MB) stay in the L2 cache; unblocked they spill and the sum runs 2-3x slower
 _BLOCK = 1 << 15
 _SCRATCH = threading.local()
+
+
+class LowRankSplit(NamedTuple):
+    """Modal damping and memory as diagonal plus rank r along V (see ``low_rank``)."""
+
+    v: np.ndarray           # (n, r) Phi^T W
+    s_d: np.ndarray         # (r, r)
+    d: np.ndarray           # (n,) diagonal of Phi^T D Phi - V S_D V^T
+    s_h: np.ndarray         # (r, r)
+    h: np.ndarray           # (n,) diagonal of Phi^T K_h Phi - V S_H V^T
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,19 +94,23 @@ class SecondOrderSystem:
         return self._modal(self.D)
 
     @cached_property
+    def _modal_memory(self) -> np.ndarray:
+        return self._modal(self.K_h)
+
+    @cached_property
     def form(self) -> str:
         """Which modal form evaluates the transfer function exactly (see module docstring)."""
         diag_ok = _is_diagonal(self._modal_damping)
-        if diag_ok and (self.relaxation is None or _is_diagonal(self._modal(self.K_h))):
+        if diag_ok and (self.relaxation is None or _is_diagonal(self._modal_memory)):
             return "diagonal"
         if self._low_rank is not None:
             return "low_rank"
         return "complex" if self.relaxation is None else "dense"
 
     @cached_property
-    def _low_rank(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-        """(V, S_D, S_H) with V = Phi^T W and Phi^T D Phi - V S_D V^T, Phi^T K_h Phi - V S_H V^T
-        diagonal (S_H zero without memory); None when :attr:`departures` are not given, exceed
+    def _low_rank(self) -> LowRankSplit | None:
+        """V = Phi^T W, S_D and S_H with Phi^T D Phi - V S_D V^T = diag(d), Phi^T K_h Phi - V S_H V^T
+        = diag(h) (S_H, h zero without memory); None when :attr:`departures` are not given, exceed
         rank :data:`LOW_RANK_MAX` (rank 1 without memory: there the complex modes cost less than
         the rank-2 algebra, 5 against 9-12 ms on the aluminium strip's tip body), or do not make
         both diagonal."""
@@ -103,10 +118,12 @@ class SecondOrderSystem:
         if w is None or not 0 < w.shape[1] <= (LOW_RANK_MAX if self.relaxation is not None else 1):
             return None
         v = self.undamped[1].T @ w
-        s_d = _diagonal_plus_low_rank(self._modal_damping, v)
-        s_h = (np.zeros_like(s_d) if self.relaxation is None or s_d is None
-               else _diagonal_plus_low_rank(self._modal(self.K_h), v))
-        return None if s_d is None or s_h is None else (v, s_d, s_h)
+        damping = _diagonal_plus_low_rank(self._modal_damping, v)
+        if damping is None:
+            return None
+        memory = ((np.zeros((w.shape[1],) * 2), np.zeros(self.size)) if self.relaxation is None
+                  else _diagonal_plus_low_rank(self._modal_memory, v))
+        return None if memory is None else LowRankSplit(v, *damping, *memory)
 
     def static_stiffness(self) -> np.ndarray:
         """Stiffness at equilibrium, K - G(0) K_h (N/m in generalised coordinates)."""
@@ -151,7 +168,7 @@ class SecondOrderSystem:
         beta = (cphi.T[:, :, None] * phib[:, None, :]).reshape(self.size, -1)
         den = [np.ones(self.size), np.diag(self._modal_damping), lam]
         if self.relaxation is not None:
-            den.append(np.diag(self._modal(self.K_h)))
+            den.append(np.diag(self._modal_memory))
         return np.stack(den, axis=1), beta, None
 
     def _complex_sections(self, C: np.ndarray, B: np.ndarray):
@@ -216,13 +233,10 @@ class SecondOrderSystem:
         batched solve of 8000 tiny systems costs milliseconds).
         """
         lam, phi = self.undamped
-        v, s_d, s_h = self._low_rank
-        d = np.diag(self._modal_damping - v @ s_d @ v.T)
+        v, s_d, d, s_h, h = self._low_rank
         cphi, phib = C @ phi, phi.T @ B
         g = None if self.relaxation is None else self.relaxation(s)
-        den = np.stack([np.ones(self.size), d, lam], axis=1)
-        if g is not None:
-            den = np.hstack([den, np.diag(self._modal(self.K_h) - v @ s_h @ v.T)[:, None]])
+        den = np.stack([np.ones(self.size), d, lam] + ([] if g is None else [h]), axis=1)
         pairs = [(cphi.T, phib), (cphi.T, v), (v, phib), (v, v)]
         beta = np.hstack([(left[:, :, None] * right[:, None, :]).reshape(self.size, -1) for left, right in pairs])
         parts = np.split(_sum_sections(s, den, beta, None, g),
@@ -235,7 +249,7 @@ class SecondOrderSystem:
 
     def _modal_dynamic_stiffness(self, s: np.ndarray) -> np.ndarray:
         lam = self.undamped[0]
-        d_m, kh_m = self._modal_damping, self._modal(self.K_h)
+        d_m, kh_m = self._modal_damping, self._modal_memory
         eye = np.eye(self.size)
         return (s[:, None, None] ** 2 * eye + s[:, None, None] * d_m + np.diag(lam)
                 - self.relaxation(s)[:, None, None] * kh_m)
@@ -275,7 +289,7 @@ class SecondOrderSystem:
 
     def _poles_diagonal(self) -> np.ndarray:
         lam = self.undamped[0]
-        d_m, kh_m = np.diag(self._modal_damping), np.diag(self._modal(self.K_h))
+        d_m, kh_m = np.diag(self._modal_damping), np.diag(self._modal_memory)
         s = 1j * np.sqrt(lam.astype(complex))
         for _ in range(60):
             g = self.relaxation(s)
@@ -348,8 +362,9 @@ def _small_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.stack([x0, x1], axis=1)
 
 
-def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> np.ndarray | None:
-    r"""Symmetric S (r, r) with a - v S v^T diagonal (to the tolerance of :func:`_is_diagonal`), or None.
+def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    r"""(S, d): symmetric S (r, r) with a - v S v^T = diag(d) (to the tolerance of :func:`_is_diagonal`),
+    or None.
 
     S minimises :math:`\sum_{i\ne j} (a_{ij} - v_i^T S v_j)^2` (rows :math:`v_i` of v), whose
     normal equations :math:`G S G - \sum_i w_i S w_i = V^T A_{off} V` (:math:`G = V^T V`,
@@ -360,12 +375,13 @@ def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> np.ndarray | None:
     n, r = v.shape
     off = a - np.diag(np.diag(a))
     if not np.any(off):                 # already diagonal (no damping, say): S = 0
-        return np.zeros((r, r))
+        return np.zeros((r, r)), np.diag(a).copy()
     g = v.T @ v
     u = (v[:, :, None] * v[:, None, :]).reshape(n, r * r)
     s = np.linalg.solve(np.kron(g, g) - u.T @ u, (v.T @ off @ v).ravel()).reshape(r, r)
     s = 0.5 * (s + s.T)
-    return s if _is_diagonal(a - v @ s @ v.T) else None
+    rest = a - v @ s @ v.T
+    return (s, np.diag(rest).copy()) if _is_diagonal(rest) else None
 
 
 def _is_diagonal(a: np.ndarray) -> bool:
