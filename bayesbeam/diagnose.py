@@ -9,8 +9,9 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
    against the mismatch, ranked before anything expensive is fitted.
 4. **Model.** The supported candidates (at least the top-ranked one, at most
    ``candidates``), and drag or friction when a mode's decay is bent (damping that falls or rises
-   as the vibration decays; :func:`amplitude_dependence`), are added to the current model one at a time and fitted like it (own
-   discretisation check, SMC evidence from repeated runs). A candidate is **added** when
+   as the vibration decays; :func:`amplitude_dependence`), are added to the current model one at
+   a time and fitted like it (own discretisation check, SMC evidence from repeated runs). A
+   candidate is **added** when
 
    * its log Bayes factor against the current model exceeds :data:`DECISIVE` = 5 nats
      (2 ln B > 10, "very strong" on Kass & Raftery's 1995 scale: odds above 150 : 1, so that the
@@ -214,15 +215,9 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     ln B > :data:`DECISIVE` by :data:`DECISIVE_SD` standard errors, the rule that added the effects.
     """
     say = log or (lambda _text: None)
+    known = _optimum_values(current)
     specs = [f"{m}+{'+'.join(effects)}" for m in DEFAULT_MODELS]
-    known = current.problem.posterior.split(current.optimum.theta)[0]
-    others, left_out = [], []
-    for spec in (s for s in specs if s != current.name and combinable(s)):
-        why = too_slow(rec, spec, known)
-        if why:
-            left_out.append(NotFitted(0, spec, why))
-        else:
-            others.append(spec)
+    others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)}, 0)
     say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}")
     started = time.perf_counter()
     results, _ = compare(rec, others, config.compare, executor, log)
@@ -257,22 +252,30 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
             "fit it explicitly if it matters")
 
 
+def _leave_out_slow(rec, specs: dict, round_: int) -> tuple[list[str], list[NotFitted]]:
+    """The models of ``specs`` (model -> values to judge it at, see :func:`too_slow`) that can be
+    fitted, and a NotFitted for each of the rest."""
+    left_out = [NotFitted(round_, spec, why) for spec, values in specs.items() if (why := too_slow(rec, spec, values))]
+    slow = {n.model for n in left_out}
+    return [spec for spec in specs if spec not in slow], left_out
+
+
 def _fittable(rec, current, candidates: list, round_: int) -> tuple[list, list]:
     """The candidates whose augmented model can be fitted, and a NotFitted for each of the rest."""
-    keep, left_out = [], []
-    for c in candidates:
-        spec = f"{current.name}+{c.effect}"
-        why = too_slow(rec, spec, _probe_values(current, c))
-        if why:
-            left_out.append(NotFitted(round_, spec, why))
-        else:
-            keep.append(c)
-    return keep, left_out
+    kept, left_out = _leave_out_slow(rec, {f"{current.name}+{c.effect}": _probe_values(current, c)
+                                           for c in candidates}, round_)
+    return [c for c in candidates if f"{current.name}+{c.effect}" in kept], left_out
+
+
+def _optimum_values(result) -> dict:
+    """The fitted model's parameters (by name) at its optimum."""
+    post = result.problem.posterior
+    return {n: v for n, v in post.split(result.optimum.theta)[0].items() if n in post.model_names}
 
 
 def _probe_values(current, candidate) -> dict:
-    """The current model's optimum and the candidate's screened value (None: its prior median)."""
-    known = current.problem.posterior.split(current.optimum.theta)[0]
+    """The current model's optimum with the candidate's screened value (None: left to its prior)."""
+    known = _optimum_values(current)
     return known if candidate.value is None else {**known, candidate.parameter: candidate.value}
 
 
@@ -338,10 +341,8 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
     the effect at the signature's value: the augmented model nests the current one, so its
     optimum must be at least as high, and a global search alone can end in a worse mode.
     """
-    post = current.problem.posterior
-    base = {n: v for n, v in post.split(current.optimum.theta)[0].items() if n in post.model_names}
     specs = [f"{current.name}+{c.effect}" for c in candidates]
-    starts = {s: {**base, c.parameter: c.value} for s, c in zip(specs, candidates) if c.value is not None}
+    starts = {s: _probe_values(current, c) for s, c in zip(specs, candidates) if c.value is not None}
     results, _ = compare(rec, specs, config.compare, executor, log, starts=starts)
     return [results[s] for s in specs]
 
@@ -447,8 +448,7 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
         text.append("Nothing the damping model leaves out shows above the noise: no effect was added.")
         return " ".join(text)
     for t, summary in zip(d.trials, parameters):
-        params = ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
-                           for k, v in summary.items())
+        params = _estimates(summary)
         verdict = "added" if t.added else "not added: " + _refusal(t, d.trials)
         text.append(f"Round {t.round}, {t.effect}: log Bayes factor {t.log_bayes_factor:.1f} +- "
                     f"{t.log_bayes_factor_sd:.2g} nats against {d.chain()[t.round - 1][0].name}, RMS standardized residual "
@@ -470,6 +470,12 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     return " ".join(text)
 
 
+def _estimates(summary: dict) -> str:
+    """Posterior summaries (name -> mean, q05, q95, unit) in words: 'k_theta = 3473 N m/rad (90 %: ...)'."""
+    return ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
+                     for k, v in summary.items())
+
+
 def _refusal(trial: Trial, trials: list) -> str:
     """Why a fitted candidate was not added, in words."""
     if not trial.decisive:
@@ -487,11 +493,10 @@ def _recheck_sentence(r: DampingRecheck) -> str:
     if r.switched:
         final = r.results[r.best]
         names = {p for e in final.problem.model.effects for p in e.parameters}
-        estimates = ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
-                              for k, v in posterior_summary(final).items() if k in names)
+        effect_estimates = _estimates({k: v for k, v in posterior_summary(final).items() if k in names})
         return (head + f"{r.best} is preferred over {r.previous} by {best['log_evidence'] - previous['log_evidence']:.1f} "
                 f"nats (decisive), so the damping verdict changes to {r.best}: the first comparison was misled "
-                f"by the missing physics. In {r.best}: {estimates}.")
+                f"by the missing physics. In {r.best}: {effect_estimates}.")
     if r.best == r.previous:
         return head + f"{r.previous} stays the best (posterior probability {previous['probability']:.3f})."
     return (head + f"{r.best} scores {best['log_evidence'] - previous['log_evidence']:.1f} nats above {r.previous}, "

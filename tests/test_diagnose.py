@@ -142,7 +142,7 @@ def test_the_decay_screen_is_looser_than_the_maps_flag_and_counts_the_modes():
 
 
 def _result(name, log_z, sd=0.1):
-    posterior = SimpleNamespace(split=lambda theta: ({"EI": 44.0}, {}))
+    posterior = SimpleNamespace(split=lambda theta: ({"EI": 44.0}, {}), model_names=("EI", "alpha", "beta"))
     model = SimpleNamespace(effects=[SimpleNamespace(parameters=("k_theta",))])
     return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=sd),
                            problem=SimpleNamespace(posterior=posterior, model=model), optimum=SimpleNamespace(theta=None))
