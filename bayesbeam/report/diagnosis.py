@@ -375,9 +375,7 @@ def _effect_section(d, summary) -> str:
 
 def parameter_table(parameters: dict) -> str:
     """Posterior summary of every parameter of a model (diagnosis.json's ``final.parameters``)."""
-    rows = [[esc(name), esc(q["unit"]), f"{q['q50']:.4g}", _interval([q["q05"], q["q95"]]),
-             f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}", flag(f"{q['r_hat']:.3f}", round(q["r_hat"], 3) > RHAT_FLAG)]
-            for name, q in parameters.items()]
+    rows = [[esc(name), esc(q["unit"]), *_posterior_cells(q)] for name, q in parameters.items()]
     return table(["parameter", "unit", "posterior median", "90% interval", "mean &plusmn; sd", "R-hat"], rows,
                  text_columns=2)
 
@@ -416,9 +414,7 @@ def effect_table(d, summary) -> str:
         c = d.signature(t)
         for name, q in entry["parameters"].items():
             screen = c is not None and c.parameter == name
-            rows.append([esc(t.effect), esc(name), esc(q["unit"]), f"{q['q50']:.4g}",
-                         _interval([q["q05"], q["q95"]]), f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}",
-                         flag(f"{q['r_hat']:.3f}", round(q["r_hat"], 3) > RHAT_FLAG),
+            rows.append([esc(t.effect), esc(name), esc(q["unit"]), *_posterior_cells(q),
                          _value(c.value, "") if screen else "n/a", _interval(c.interval_90) if screen else "n/a",
                          "<b>added</b>" if t.added else "no"])
     head = ["effect", "parameter", "unit", "posterior median", "90% interval", "mean &plusmn; sd", "R-hat",
@@ -427,6 +423,12 @@ def effect_table(d, summary) -> str:
 
 
 # ---------------------------------------------------------------------------- formatting
+def _posterior_cells(q: dict) -> list[str]:
+    """Median, 90% interval, mean +- sd and R-hat (flagged) of one parameter's posterior summary."""
+    return [f"{q['q50']:.4g}", _interval([q["q05"], q["q95"]]), f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}",
+            flag(f"{q['r_hat']:.3f}", round(q["r_hat"], 3) > RHAT_FLAG)]
+
+
 def _value(value, unit) -> str:
     return "n/a" if value is None else f"{value:.4g}" + (f" {esc(unit)}" if unit else "")
 
