@@ -233,11 +233,13 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
 
 
 def too_slow(rec, spec: str, known: dict) -> str | None:
-    """Why ``spec`` is not fitted, or None: its transfer function needs the dense per-frequency
-    solve (a memory mechanism beside non-modal damping or beside an added stiffness of full rank,
-    such as q2 + axial_load), which costs a second per likelihood at the paper beam's N = 48, and
-    an SMC evidence days. Judged at ``known`` values and the default priors' medians for the rest
-    (the form does not depend on N; N = 6 here)."""
+    """Why ``spec`` is not fitted, or None: a memory mechanism beside non-modal damping or beside
+    an added stiffness of full rank (such as q2 + axial_load) has no modal form, and its transfer
+    function needs an elimination of Z(s) per frequency (the ``banded`` form: 16 ms per likelihood
+    on the 4 s paper records at N = 48, nine times q2's 1.9 ms; the ``dense`` one where Z has no
+    narrow band: about a second), so its fits would take most of a diagnosis's time. Judged at
+    ``known`` values and the default priors' medians for the rest (the form does not depend on
+    N; N = 6 here)."""
     model = BeamModel(rec, spec, 6)
     priors = default_priors(rec.beam, model.parameter_names, {})
     values = {n: known[n] if n in known else float(priors[n].to_value(priors[n].median())) for n in model.parameter_names}
@@ -245,10 +247,11 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
         form = model.system(values).form
     except ValueError:              # not physical at these values: let the fit find out
         return None
-    if form != "dense":
+    if form not in ("banded", "dense"):
         return None
+    cost = "about ten times its base model's" if form == "banded" else "about a second at N = 48"
     return ("its memory mechanism sits beside non-modal damping or a full-rank added stiffness, so its "
-            "transfer function needs a dense solve per frequency (about 1 s per likelihood at N = 48): "
+            f"transfer function needs a solve of Z(s) per frequency ({cost} per likelihood): "
             "fit it explicitly if it matters")
 
 
