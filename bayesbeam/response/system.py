@@ -62,9 +62,10 @@ _SCRATCH = threading.local()
 #: O(n b^2) per frequency against O(n^3) for the dense solve (measured at the full width of spatial
 #: hysteresis, b = n - 1, it is 0.6 to 1.5 times the dense solve's cost)
 BAND_MAX = 6
-#: frequencies per block of the band elimination, which bounds its memory (17 MB at N = 16, 53 MB
-#: at N = 48); smaller blocks ran slower (N = 16, 8193 frequencies: 4.8 ms whole, 5.2 ms in two)
-_BAND_BLOCK = 1 << 14
+#: frequencies per block of the band elimination (at most): it bounds the reused work buffer (5 MB
+#: at N = 16, 13 MB at N = 48). Measured on 8193 frequencies, q2 + axial_load, N = 16/32/48:
+#: 4.4/7.2/10.4 ms per simulate in three blocks, 4.2/8.0/11.9 in two, 5.0/9.0/12.6 in five
+_BAND_BLOCK = 1 << 12
 
 
 class BandOrder(NamedTuple):
@@ -287,18 +288,22 @@ class SecondOrderSystem:
         if self.relaxation is not None:
             terms.append((self.K_h, -self.relaxation(s)))
         terms = [(a, c) for a, c in terms if np.any(a)]
+        # the band's orientation that starts the outputs' and inputs' elimination latest
+        perm = max((perm, perm[::-1]), key=lambda p: sum(_first_nonzero(x) for x in (C[:, p].T, B[p])))
         band = np.stack([_lower_band(a[np.ix_(perm, perm)], b) for a, _ in terms], axis=-1).reshape(-1, len(terms))
         coef = np.array([c for _, c in terms])
-        rows, cols = C[:, perm], B[perm]
-        n_out = rows.shape[0]
-        out = np.empty((s.size, n_out, cols.shape[1]), dtype=complex)
+        out = np.empty((s.size, C.shape[0], B.shape[1]), dtype=complex)
         edges = np.linspace(0, s.size, -(-s.size // _BAND_BLOCK) + 1).astype(int)
+        shapes = [((n + b) * (b + 1),), (n + b, C.shape[0]), (n + b, B.shape[1])]
+        work = _scratch(2 * int(np.max(np.diff(edges))) * sum(int(np.prod(x)) for x in shapes))
         for lo, hi in itertools.pairwise(edges):
-            z = np.zeros(((n + b) * (b + 1), hi - lo), dtype=complex)
-            np.matmul(band, coef[:, lo:hi], out=z[:n * (b + 1)])
-            y = np.zeros((n + b, n_out + cols.shape[1], hi - lo), dtype=complex)
-            y[:n, :n_out], y[:n, n_out:] = rows.T[:, :, None], cols[:, :, None]
-            out[lo:hi] = _eliminate(z, y, n, b, n_out).transpose(2, 0, 1)
+            z, rows, cols = _complex_parts(work, [x + (hi - lo,) for x in shapes])
+            # real band times complex coefficients: one real product on the interleaved parts
+            np.matmul(band, coef[:, lo:hi].copy().view(float), out=z[:n * (b + 1)].view(float))
+            z[n * (b + 1):] = 0.0
+            rows[n:], cols[n:] = 0.0, 0.0
+            rows[:n], cols[:n] = C[:, perm].T[:, :, None], B[perm][:, :, None]
+            out[lo:hi] = _eliminate(z, rows, cols, b).transpose(2, 0, 1)
         return out
 
     def _transfer_low_rank(self, s: np.ndarray, C: np.ndarray, B: np.ndarray) -> np.ndarray:
@@ -477,19 +482,29 @@ def _lower_band(a: np.ndarray, b: int) -> np.ndarray:
     return np.where(cols >= 0, a[np.arange(n)[:, None], np.clip(cols, 0, None)], 0.0)
 
 
-def _eliminate(z: np.ndarray, y: np.ndarray, n: int, b: int, n_out: int) -> np.ndarray:
-    """sum_k y_k[:n_out] y_k[n_out:]^T / d_k over the symmetric elimination of ``z``, (n_out, n_in, f).
+def _first_nonzero(a: np.ndarray) -> int:
+    """Index of the first row of ``a`` (n, k) with a nonzero entry (n if none)."""
+    nonzero = np.flatnonzero(np.any(a != 0, axis=1))
+    return int(nonzero[0]) if nonzero.size else a.shape[0]
+
+
+def _eliminate(z: np.ndarray, rows: np.ndarray, cols: np.ndarray, b: int) -> np.ndarray:
+    """sum_k rows_k cols_k^T / d_k over the symmetric elimination of ``z``: (n_out, n_in, f).
 
     ``z`` ((n + b) (b + 1), f): the lower band storage of Z, row i (b + 1) + o holding
     Z[i, i - o] per frequency, with b rows of padding so that every pivot's window stays inside
-    the array (they stay zero: so do their multipliers); ``y`` (n + b, n_out + n_in, f): the rows
-    of C and the columns of B, eliminated in place. In this storage every set of entries the
-    elimination touches together is a strided slice of z's rows.
+    the array (they stay zero: so do their multipliers). ``rows`` (n + b, n_out, f) and ``cols``
+    (n + b, n_in, f): C^T and B, eliminated in place, each from its first nonzero entry on
+    (before it the elimination leaves zeros zero: a tip sensor's rows cost nothing until the
+    tip). In this storage every set of entries the elimination touches together is a strided
+    slice of z's rows.
     """
-    f, w = z.shape[1], b + 1
-    acc = np.zeros((n_out, y.shape[1] - n_out, f), dtype=complex)
+    n, f, w = rows.shape[0] - b, z.shape[1], b + 1
+    starts = [_first_nonzero(y[:n, :, 0]) for y in (rows, cols)]
+    acc = np.zeros((rows.shape[1], cols.shape[1], f), dtype=complex)
     inv, mult, update = np.empty(f, dtype=complex), np.empty((b, f), dtype=complex), np.empty((b, f), dtype=complex)
-    carried, term = np.empty((b, y.shape[1], f), dtype=complex), np.empty(acc.shape, dtype=complex)
+    carried = np.empty((b, max(rows.shape[1], cols.shape[1]), f), dtype=complex)
+    term = np.empty(acc.shape, dtype=complex)
     for k in range(n):
         top = k * w
         column = z[top + w + 1:top + w * w + 1:w + 1]            # Z[k+q, k], q = 1..b (= Z[k, k+q])
@@ -499,11 +514,15 @@ def _eliminate(z: np.ndarray, y: np.ndarray, n: int, b: int, n_out: int) -> np.n
             part = update[:b - d]
             np.multiply(mult[d:], column[:b - d], out=part)
             z[top + (d + 1) * w + d:top + w * w + d:w] -= part
-        np.multiply(mult[:, None], y[k][None], out=carried)
-        y[k + 1:k + 1 + b] -= carried
-        np.multiply(y[k, :n_out, None], y[k, None, n_out:], out=term)
-        term *= inv
-        acc += term
+        for y, start in zip((rows, cols), starts):
+            if k >= start:
+                part = carried[:, :y.shape[1]]
+                np.multiply(mult[:, None], y[k][None], out=part)
+                y[k + 1:k + 1 + b] -= part
+        if k >= max(starts):
+            np.multiply(rows[k][:, None], cols[k][None], out=term)
+            term *= inv
+            acc += term
     return acc
 
 
@@ -579,6 +598,16 @@ def _section_rows(s: np.ndarray, den: np.ndarray, g: np.ndarray | None):
         im_rows.append(-g.imag)
         im_cols.append(3)
     return np.array(re_rows), np.array(im_rows), -den[:, im_cols]
+
+
+def _complex_parts(work: np.ndarray, shapes: list[tuple[int, ...]]) -> list[np.ndarray]:
+    """Consecutive complex arrays of the given shapes laid out in the float buffer ``work``."""
+    parts, at = [], 0
+    for shape in shapes:
+        size = 2 * int(np.prod(shape))
+        parts.append(work[at:at + size].view(complex).reshape(shape))
+        at += size
+    return parts
 
 
 def _scratch(size: int) -> np.ndarray:
