@@ -333,6 +333,10 @@ class SecondOrderSystem:
         parts = np.split(_sum_sections(s, den, beta, None, g),
                          np.cumsum([a.shape[1] * b.shape[1] for a, b in pairs])[:-1], axis=1)
         h, p, q, rr = (x.reshape(s.size, a.shape[1], b.shape[1]) for x, (a, b) in zip(parts, pairs))
+        if v.shape[1] == 1:                 # scalars per frequency: h - p q t / (1 + rr t)
+            t = s * s_d[0, 0] if g is None else s * s_d[0, 0] - g * s_h[0, 0]
+            t /= 1.0 + rr[:, 0, 0] * t
+            return h - (p * t[:, None, None]) * q
         t = s[:, None, None] * s_d if g is None else s[:, None, None] * s_d - g[:, None, None] * s_h
         capacitance = _small_product(rr, t)
         capacitance[:, np.arange(v.shape[1]), np.arange(v.shape[1])] += 1.0
