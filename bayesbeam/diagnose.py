@@ -237,9 +237,12 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
     an added stiffness of full rank (such as q2 + axial_load) has no modal form, and its transfer
     function needs an elimination of Z(s) per frequency (the ``banded`` form: 16 ms per likelihood
     on the 4 s paper records at N = 48, nine times q2's 1.9 ms; the ``dense`` one where Z has no
-    narrow band: about a second), so its fits would take most of a diagnosis's time. Judged at
-    ``known`` values and the default priors' medians for the rest (the form does not depend on
-    N; N = 6 here)."""
+    narrow band: about a second), so its fits would take most of a diagnosis's time. A free decay's
+    likelihood needs only the poles and mode shapes, which cost every form about the same (1 ms
+    at N = 16), so nothing is too slow there. Judged at ``known`` values and the default priors'
+    medians for the rest (the form does not depend on N; N = 6 here)."""
+    if rec.excitation.kind == "free_decay":
+        return None
     model = BeamModel(rec, spec, 6)
     priors = default_priors(rec.beam, model.parameter_names, {})
     values = {n: known[n] if n in known else float(priors[n].to_value(priors[n].median())) for n in model.parameter_names}

@@ -220,13 +220,20 @@ def test_the_recheck_leaves_out_models_that_cannot_carry_the_effects(monkeypatch
 def test_models_that_need_a_solve_per_frequency_are_not_fitted(spec, slow):
     """Memory beside a full-rank added stiffness (an axial load's geometric stiffness) has no modal
     form: ten times its base model per likelihood, so the diagnosis leaves it out and says why;
-    a root spring (rank 1) or a sensor mass keeps q2 fast, and models without memory are never slow."""
-    from bayesbeam.diagnose import too_slow
+    a root spring (rank 1) or a sensor mass keeps q2 fast, and models without memory are never slow.
+    On a free decay none is slow."""
+    from dataclasses import replace
 
-    reason = too_slow(recording(None), spec, {})
+    from bayesbeam.diagnose import too_slow
+    from bayesbeam.io.recording import Excitation
+
+    rec = recording(None)
+    reason = too_slow(rec, spec, {})
     assert (reason is not None) == slow
     if slow:
         assert "solve of Z(s) per frequency" in reason
+    # a free decay's likelihood needs poles and mode shapes only: no model is too slow there
+    assert too_slow(replace(rec, excitation=Excitation(kind="free_decay", start=0.1), force=None), spec, {}) is None
 
 
 def test_a_round_fits_what_it_can_and_records_the_rest():

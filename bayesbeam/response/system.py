@@ -370,15 +370,16 @@ class SecondOrderSystem:
     def poles(self) -> np.ndarray:
         """Oscillatory poles p = -zeta w + i w sqrt(1-zeta^2), Im p > 0, sorted by |p| (rad/s).
 
-        With a memory term the poles are roots of det Z(s) = 0, found by Newton's method per
-        mode (diagonal form) or by freezing G(s) at each pole and iterating (the other forms).
+        With a memory term the poles are roots of det Z(s) = 0 near each undamped mode: by
+        Newton's method on each modal denominator (diagonal form) or on the Rayleigh functional
+        (the other forms, :meth:`_poles_rayleigh`).
         """
         if self.relaxation is None:
             p = self.state_modes[0]
         elif self.form == "diagonal":
             p = self._poles_diagonal()
         else:
-            p = self._poles_frozen_kernel()
+            p = self._poles_rayleigh()
         p = p[p.imag > 0]
         return p[np.argsort(np.abs(p))]
 
@@ -397,21 +398,38 @@ class SecondOrderSystem:
                 break
         return s
 
-    def _poles_frozen_kernel(self) -> np.ndarray:
-        out = []
-        for guess in 1j * np.sqrt(self.undamped[0].astype(complex)):
-            s = guess
-            for _ in range(60):
-                # freeze the (complex) memory stiffness at s and take the nearest eigenvalue
-                z_k = self.K - self.relaxation(np.array([s]))[0] * self.K_h
-                cand = _quadratic_eigenvalues(self.M, self.D, z_k)
-                new = cand[np.argmin(np.abs(cand - s))]
-                converged = abs(new - s) <= 1e-12 * abs(s)
-                s = new
-                if converged:
-                    break
-            out.append(s)
-        return np.array(out)
+    def _poles_rayleigh(self) -> np.ndarray:
+        r"""Every mode's pole by Rayleigh functional iteration, all modes at once.
+
+        In undamped modal coordinates, from :math:`s = i\omega_m`, :math:`x = e_m`:
+
+        .. math:: x \leftarrow Z(s)^{-1} Z'(s)\, x, \qquad
+                  s \leftarrow s - \frac{x^T Z(s)\, x}{x^T Z'(s)\, x},
+
+        inverse iteration for the mode shape and a Newton step on :math:`x^T Z(s) x = 0`
+        (transposes, not conjugates: Z is complex symmetric, so x serves as left and right
+        vector and the iteration converges cubically). The fixed point is a root of det Z:
+        Z(s) x = 0. G'(s) by a central difference (it changes the convergence, not the root).
+        """
+        lam = self.undamped[0]
+        s = 1j * np.sqrt(lam.astype(complex))
+        x = np.eye(self.size, dtype=complex)                     # row m: mode m's shape
+        eye = np.eye(self.size)
+        for _ in range(60):
+            ds = 1e-7 * np.abs(s)
+            dg = (self.relaxation(s + ds) - self.relaxation(s - ds)) / (2 * ds)
+            z = self._modal_dynamic_stiffness(s)
+            dz = 2 * s[:, None, None] * eye + self._modal_damping - dg[:, None, None] * self._modal_memory
+            try:
+                x = np.linalg.solve(z, np.einsum("mij,mj->mi", dz, x)[:, :, None])[:, :, 0]
+            except np.linalg.LinAlgError:                        # Z(s) singular: s is a root
+                break
+            x /= np.linalg.norm(x, axis=1)[:, None]
+            step = np.einsum("mi,mij,mj->m", x, z, x) / np.einsum("mi,mij,mj->m", x, dz, x)
+            s = s - step
+            if np.all(np.abs(step) <= 1e-13 * np.abs(s)):
+                break
+        return s
 
 
 def undamped_modes(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -433,12 +451,6 @@ def undamped_modes(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray
                                     "M must be positive definite")
     lam = np.einsum("ij,ij->j", phi, K @ phi) / np.einsum("ij,ij->j", phi, M @ phi)
     return lam, phi
-
-
-def _quadratic_eigenvalues(M, D, K) -> np.ndarray:
-    n = M.shape[0]
-    a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(M, K), -np.linalg.solve(M, D)]])
-    return np.linalg.eigvals(a)
 
 
 def _small_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
