@@ -14,7 +14,8 @@ On the 4 s, 2048 Hz recording ``data/examples/paper_q3_hammer`` (q3 at its true 
    or K changes the mode shapes with its parameter, so its model solves one eigenproblem per call
    where the base model reuses cached shapes scaled by EI; a root spring adds a degree of freedom
    (the root slope); beside q2's memory a root spring takes the ``low_rank`` form and an axial
-   load's full-rank geometric stiffness the dense per-frequency solve (no fast exact form known).
+   load's full-rank geometric stiffness the ``banded`` form, an elimination of Z(s) per frequency
+   (no modal form exists for it).
 2. **Nonlinear effects** (quadratic_drag, dry_friction) at N = 16: ms per ``simulate`` (target
    100 ms), the size of the effect (RMS of y - y_linear over RMS of y), the accuracy at the
    default step (RMS difference to a run with 4x more substeps, relative to the effect's RMS),
