@@ -1,8 +1,9 @@
 #!/usr/bin/env python
 """Forward-model benchmark: bayesbeam's ``model.simulate`` against time integrators.
 
-    python benchmarks/forward.py            # full run, about 8 minutes on 2 cores
+    python benchmarks/forward.py            # full run, about 8 minutes on 2 cores, then the effects
     python benchmarks/forward.py --quick    # under 2 minutes: baselines on short prefixes
+    python benchmarks/forward.py --no-effects   # without the effects' tables
 
 Times ``model.simulate(params)`` for q1, q2, q3 at N = 16 and 32 on the 4 s, 2048 Hz recording
 ``data/examples/paper_q3_hammer`` and, in the same run, on the same M, D, K and the same force:
@@ -12,6 +13,10 @@ Times ``model.simulate(params)`` for q1, q2, q3 at N = 16 and 32 on the 4 s, 204
 * ``pyyeti.ode.SolveExp2`` (exact exponential, first-order hold) (a) on the record's grid with
   the samples as given and (b) on a grid 16x finer with the band-limited force;
   for q2 the augmented state space with ``pyyeti.ode.SolveExp1``.
+
+Then the missing-physics effects (issue #6) on the same recording: ``benchmarks/effects.py``, run
+from here (its tables 1-3: each linear effect against its base model, drag and friction against
+100 ms, solve_ivp on the same nonlinear systems; with ``--quick`` its table 1 alone).
 
 See benchmarks/README.md for what is measured and why; _common.py for the building blocks.
 """
@@ -150,6 +155,8 @@ def main(argv=None) -> int:
                         help="under 2 minutes: baselines on record prefixes, fewer repeats")
     parser.add_argument("--wall", action="store_true",
                         help="time with wall-clock time (time.perf_counter) instead of process CPU time")
+    parser.add_argument("--no-effects", action="store_true",
+                        help="skip the missing-physics effects' tables (benchmarks/effects.py)")
     args = parser.parse_args(argv)
     quick = args.quick
     if args.wall:
@@ -356,6 +363,10 @@ def main(argv=None) -> int:
     print()
     print(f"total {time.perf_counter() - started:.0f} s; load average at the end: "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    if not args.no_effects:
+        import effects
+        print()
+        effects.main((["--linear-only"] if quick else []) + (["--wall"] if args.wall else []))
     return 0
 
 
