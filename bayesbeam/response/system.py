@@ -481,15 +481,27 @@ def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, n
     :math:`v_i \otimes v_i` of U: O(n^2 r) work, no n^2-row least squares.
     """
     n, r = v.shape
-    off = a - np.diag(np.diag(a))
+    off = _off_diagonal(a)
     if not np.any(off):                 # already diagonal (no damping, say): S = 0
-        return np.zeros((r, r)), np.diag(a).copy()
+        return np.zeros((r, r)), a.diagonal().copy()
     g = v.T @ v
     u = (v[:, :, None] * v[:, None, :]).reshape(n, r * r)
-    s = np.linalg.solve(np.kron(g, g) - u.T @ u, (v.T @ off @ v).ravel()).reshape(r, r)
+    kron = (g[:, None, :, None] * g[None, :, None, :]).reshape(r * r, r * r)     # G (x) G
+    s = np.linalg.solve(kron - u.T @ u, (v.T @ off @ v).ravel()).reshape(r, r)
     s = 0.5 * (s + s.T)
     rest = a - v @ s @ v.T
-    return (s, np.diag(rest).copy()) if _is_diagonal(rest) else None
+    return (s, rest.diagonal().copy()) if _is_diagonal(rest) else None
+
+
+def _off_diagonal(a: np.ndarray) -> np.ndarray:
+    off = a.copy()
+    np.fill_diagonal(off, 0.0)
+    return off
+
+
+def _is_diagonal(a: np.ndarray) -> bool:
+    scale = np.max(np.abs(a.diagonal()), initial=0.0)
+    return bool(np.max(np.abs(_off_diagonal(a)), initial=0.0) <= _DIAGONAL_TOL * max(scale, np.finfo(float).tiny))
 
 
 def _lower_band(a: np.ndarray, b: int) -> np.ndarray:
@@ -541,12 +553,6 @@ def _eliminate(z: np.ndarray, rows: np.ndarray, cols: np.ndarray, b: int) -> np.
             term *= inv
             acc += term
     return acc
-
-
-def _is_diagonal(a: np.ndarray) -> bool:
-    off = a - np.diag(np.diag(a))
-    scale = np.max(np.abs(np.diag(a))) if a.size else 0.0
-    return bool(np.max(np.abs(off), initial=0.0) <= _DIAGONAL_TOL * max(scale, np.finfo(float).tiny))
 
 
 def _sum_sections(s: np.ndarray, den: np.ndarray, beta: np.ndarray, alpha: np.ndarray | None,
