@@ -363,8 +363,7 @@ class BeamModel:
         the small non-oscillatory creep of the memory's branch cut.
         """
         system = self.system(params)
-        poles = system.poles()
-        poles = poles[np.abs(poles) < 2 * np.pi * STOPBAND * self.recording.fs]
+        poles = system.poles(below=2 * np.pi * STOPBAND * self.recording.fs)
         shapes = np.stack([_null_vector(system, p) for p in poles], axis=1)
         tau = self.recording.time - self.recording.excitation.start
         waves = np.exp(np.outer(np.where(self.fit_mask, tau, 0.0), poles))

@@ -27,8 +27,8 @@ exact modal forms:
     any other memory term whose matrices are banded (an axial load's full-rank geometric
     stiffness beside time hysteresis; the B-spline Galerkin forms couple only neighbouring
     splines, a root slope joins after reordering): a symmetric band elimination per frequency,
-    vectorised over the frequencies (:meth:`SecondOrderSystem._transfer_banded`; about ten times
-    the diagonal form).
+    vectorised over the frequencies (:meth:`SecondOrderSystem._transfer_banded`; five to six
+    times the diagonal form in benchmarks/effects.py).
 ``dense``
     the rest (memory beside spatial hysteresis, whose kernel couples every pair of splines):
     a batched solve in modal coordinates per frequency (50-500 times slower).
@@ -297,13 +297,14 @@ class SecondOrderSystem:
         edges = np.linspace(0, s.size, -(-s.size // _BAND_BLOCK) + 1).astype(int)
         shapes = [((n + b) * (b + 1),), (n + b, C.shape[0]), (n + b, B.shape[1])]
         work = _scratch(2 * int(np.max(np.diff(edges))) * sum(int(np.prod(x)) for x in shapes))
+        rows_in, cols_in = C[:, perm].T[:, :, None], B[perm][:, :, None]
         for lo, hi in itertools.pairwise(edges):
             z, rows, cols = _complex_parts(work, [x + (hi - lo,) for x in shapes])
             # real band times complex coefficients: one real product on the interleaved parts
             np.matmul(band, coef[:, lo:hi].copy().view(float), out=z[:n * (b + 1)].view(float))
             z[n * (b + 1):] = 0.0
             rows[n:], cols[n:] = 0.0, 0.0
-            rows[:n], cols[:n] = C[:, perm].T[:, :, None], B[perm][:, :, None]
+            rows[:n], cols[:n] = rows_in, cols_in
             out[lo:hi] = _eliminate(z, rows, cols, b).transpose(2, 0, 1)
         return out
 
@@ -368,21 +369,35 @@ class SecondOrderSystem:
         return poles, np.vstack([phi @ vec[:n], phi @ vec[n:]])
 
     # ----------------------------------------------------------------- poles
-    def poles(self) -> np.ndarray:
-        """Oscillatory poles p = -zeta w + i w sqrt(1-zeta^2), Im p > 0, sorted by |p| (rad/s).
+    def poles(self, below: float | None = None) -> np.ndarray:
+        """Oscillatory poles p = -zeta w + i w sqrt(1-zeta^2), Im p > 0, sorted by |p| (rad/s);
+        with ``below`` (rad/s) only those with |p| < below.
 
         With a memory term the poles are roots of det Z(s) = 0 near each undamped mode: by
         Newton's method on each modal denominator (diagonal form) or on the Rayleigh functional
-        (the other forms, :meth:`_poles_rayleigh`).
+        (the other forms, :meth:`_poles_rayleigh`, which with ``below`` follows only the modes it
+        can reach: see :meth:`_tracked_modes`).
         """
         if self.relaxation is None:
             p = self.state_modes[0]
         elif self.form == "diagonal":
             p = self._poles_diagonal()
         else:
-            p = self._poles_rayleigh()
-        p = p[p.imag > 0]
+            p = self._poles_rayleigh(self._tracked_modes(below))
+            if below is not None and p.size < self.size and np.max(np.abs(p), initial=0.0) < below:
+                p = self._poles_rayleigh(self.size)     # the margin is not shown: follow every mode
+        p = p[(p.imag > 0) & (np.abs(p) < (np.inf if below is None else below))]
         return p[np.argsort(np.abs(p))]
+
+    def _tracked_modes(self, below: float | None) -> int:
+        """How many of the lowest undamped modes to follow for the poles under ``below``: those with
+        omega_m < 2 below. A pole lies within its mode's softening of omega_m, and the softening by a
+        memory (|G| falls with frequency) or a compressive load (P k^2 against EI k^4) shrinks up the
+        spectrum, so :meth:`poles` checks the highest followed pole: above ``below``, no higher mode,
+        softened less, can fall under it; else every mode is followed."""
+        if below is None:
+            return self.size
+        return int(np.count_nonzero(self.undamped[0] < (2.0 * below) ** 2))
 
     def _poles_diagonal(self) -> np.ndarray:
         lam = self.undamped[0]
@@ -399,8 +414,8 @@ class SecondOrderSystem:
                 break
         return s
 
-    def _poles_rayleigh(self) -> np.ndarray:
-        r"""Every mode's pole by Rayleigh functional iteration, all modes at once.
+    def _poles_rayleigh(self, count: int) -> np.ndarray:
+        r"""The poles of the ``count`` lowest modes by Rayleigh functional iteration, all at once.
 
         In undamped modal coordinates, from :math:`s = i\omega_m`, :math:`x = e_m`:
 
@@ -412,9 +427,9 @@ class SecondOrderSystem:
         vector and the iteration converges cubically). The fixed point is a root of det Z:
         Z(s) x = 0. G'(s) by a central difference (it changes the convergence, not the root).
         """
-        lam = self.undamped[0]
+        lam = self.undamped[0][:count]
         s = 1j * np.sqrt(lam.astype(complex))
-        x = np.eye(self.size, dtype=complex)                     # row m: mode m's shape
+        x = np.eye(self.size, dtype=complex)[:count]             # row m: mode m's shape
         eye = np.eye(self.size)
         for _ in range(60):
             ds = 1e-7 * np.abs(s)
@@ -461,9 +476,8 @@ def _small_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _small_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solve the stack of (k, r, r) systems a x = b for r <= 2: a division, or Cramer's rule."""
-    if a.shape[-1] == 1:
-        return b / a
+    """Solve the stack of (k, 2, 2) systems a x = b by Cramer's rule (rank one never gets here:
+    :meth:`SecondOrderSystem._transfer_low_rank` divides by scalars)."""
     det = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
     x0 = (a[:, 1, 1, None] * b[:, 0] - a[:, 0, 1, None] * b[:, 1]) / det[:, None]
     x1 = (a[:, 0, 0, None] * b[:, 1] - a[:, 1, 0, None] * b[:, 0]) / det[:, None]

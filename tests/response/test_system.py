@@ -241,6 +241,24 @@ def test_poles_with_memory_agree_with_the_frozen_kernel_iteration(spec, extra, f
         assert sv[-1] < 1e-14 * sv[0]
 
 
+@pytest.mark.parametrize("spec, extra", [("q2+root_compliance", {"k_theta": 3500.0}),
+                                         ("q2+axial_load", {"P": -3.0})])
+def test_poles_below_a_frequency_follow_only_the_modes_that_can_reach_it(spec, extra, monkeypatch):
+    """poles(below) is poles() cut at below (what a free decay's basis keeps), to 1e-12 relative:
+    each mode's iteration runs alone, and following fewer modes can only change how many times a
+    converged pole is refined (measured: identical). It follows only the
+    modes under twice ``below``; when even the highest of those stays under ``below`` (forced here
+    by following two modes), it follows every mode instead."""
+    model = BeamModel(load_recording("data/examples/paper_rootcomp_hammer"), spec, n_intervals=16)
+    system = model.system({"EI": EI, "alpha": 0.05, "beta": MEMORY["beta"], **extra})
+    every = system.poles()
+    below = 0.5 * (abs(every[2]) + abs(every[3]))                  # between the third and fourth pole
+    assert system._tracked_modes(below) < system.size
+    np.testing.assert_allclose(system.poles(below), every[:3], rtol=1e-12)
+    monkeypatch.setattr(type(system), "_tracked_modes", lambda self, below: 2)
+    np.testing.assert_allclose(system.poles(below), every[:3], rtol=1e-12)
+
+
 def test_rayleigh_poles_equal_the_diagonal_newton_and_the_state_matrix_eigenvalues():
     """Two exact references: on a modal system (q2) the per-mode scalar Newton iteration; with a zero
     memory kernel beside non-modal damping, the eigenvalues of the first-order state matrix. Both
@@ -250,7 +268,7 @@ def test_rayleigh_poles_equal_the_diagonal_newton_and_the_state_matrix_eigenvalu
     modal = SecondOrderSystem(ops.M, 0 * ops.M, EI * ops.K0, g, ops.K0)
     assert modal.form == "diagonal"
     diagonal = modal._poles_diagonal()
-    assert np.max(np.abs(modal._poles_rayleigh() - diagonal) / np.abs(diagonal)) < 1e-12
+    assert np.max(np.abs(modal._poles_rayleigh(modal.size) - diagonal) / np.abs(diagonal)) < 1e-12
     air = Air().damping(ops, {"gamma": 0.3})
     zero = SecondOrderSystem(ops.M, air, EI * ops.K0, lambda s: np.zeros_like(s, dtype=complex), ops.K0)
     assert zero.form != "diagonal"
