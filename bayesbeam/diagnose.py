@@ -235,11 +235,12 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
 def too_slow(rec, spec: str, known: dict) -> str | None:
     """Why ``spec`` is not fitted, or None: a memory mechanism beside non-modal damping or beside
     an added stiffness of full rank (such as q2 + axial_load) has no modal form, and its transfer
-    function needs an elimination of Z(s) per frequency (the ``banded`` form: 16 ms per likelihood
-    on the 4 s paper records at N = 48, nine times q2's 1.9 ms; the ``dense`` one where Z has no
-    narrow band: about a second), so its fits would take most of a diagnosis's time. A free decay's
-    likelihood needs only the poles and mode shapes, which cost every form about the same (1 ms
-    at N = 16), so nothing is too slow there. Judged at ``known`` values and the default priors'
+    function needs an elimination of Z(s) per frequency (the ``banded`` form: 11 ms per simulation
+    of a 4 s paper record at N = 48, seven times q2's, benchmarks/effects.py; the ``dense`` one
+    where Z has no narrow band: 207 ms at N = 32), so its fits would take most of a diagnosis's
+    time. A free decay's likelihood needs only the poles under the stopband and their mode shapes
+    (0.8 ms at N = 16, 3.3 ms at N = 48 against q2's 0.13-0.18 ms, table 1b there), so nothing is
+    left out there. Judged at ``known`` values and the default priors'
     medians for the rest (the form does not depend on N; N = 6 here)."""
     if rec.excitation.kind == "free_decay":
         return None
@@ -252,7 +253,7 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
         return None
     if form not in ("banded", "dense"):
         return None
-    cost = "about ten times its base model's" if form == "banded" else "about a second at N = 48"
+    cost = "five to seven times its base model's" if form == "banded" else "80 to 180 times its base model's"
     return ("its memory mechanism sits beside non-modal damping or a full-rank added stiffness, so its "
             f"transfer function needs a solve of Z(s) per frequency ({cost} per likelihood): "
             "fit it explicitly if it matters")

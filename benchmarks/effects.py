@@ -3,12 +3,12 @@
 
     python benchmarks/effects.py            # about 3-6 minutes on 2 cores
     python benchmarks/effects.py --quick    # about 1-2 minutes (solve_ivp on a shorter prefix)
-    python benchmarks/effects.py --linear-only   # table 1 only
+    python benchmarks/effects.py --linear-only   # tables 1 and 1b only
 
 On the 4 s, 2048 Hz recording ``data/examples/paper_q3_hammer`` (q3 at its true parameters):
 
 1. **Linear effects** (root_compliance, sensor_mass, axial_load, measurement_delay) against each
-   of the paper's three base models, N = 16 and 32, with the transfer form the system takes
+   of the paper's three base models, N = 16, 32 and 48, with the transfer form the system takes
    (``SecondOrderSystem.form``): they only change M, K, the root condition or a phase factor, so
    they should cost what the base model costs. What they cannot avoid: an effect that changes M
    or K changes the mode shapes with its parameter, so its model solves one eigenproblem per call
@@ -16,6 +16,8 @@ On the 4 s, 2048 Hz recording ``data/examples/paper_q3_hammer`` (q3 at its true 
    (the root slope); beside q2's memory a root spring takes the ``low_rank`` form and an axial
    load's full-rank geometric stiffness the ``banded`` form, an elimination of Z(s) per frequency
    (no modal form exists for it).
+   **1b.** ``system(p).poles(below)`` under the DAQ stopband for q2 with a root spring, a sensor
+   mass or an axial load against q2 alone: all a free decay's likelihood needs besides mode shapes.
 2. **Nonlinear effects** (quadratic_drag, dry_friction) at N = 16: ms per ``simulate`` (target
    100 ms), the size of the effect (RMS of y - y_linear over RMS of y), the accuracy at the
    default step (RMS difference to a run with 4x more substeps, relative to the effect's RMS),
@@ -50,11 +52,14 @@ from scipy.integrate import solve_ivp
 
 from bayesbeam import BeamModel, load_recording
 from bayesbeam.response import nonlinear as nl
+from bayesbeam.response.linear import STOPBAND
 
 PRE = 128                    # samples integrated before t = 0 by solve_ivp (the force is acausal)
 SPLINE_FACTOR = 32
 RTOL = 1e-8
 TARGET_MS = 100.0
+#: spline intervals of the linear tables (48: the paper beam's fitted N in the studies)
+SIZES = (16, 32, 48)
 PARAMS = {"EI": 44.28, "gamma": 0.12, "a": 0.025, "b": 0.18}
 #: the base models of the linear-effects table, at benchmarks/forward.py's parameters
 BASES = (("q1", {"EI": 44.28, "gamma": 0.12, "cdI": 2e-5}), ("q2", {"EI": 44.28, "alpha": 0.05, "beta": 20.0}),
@@ -197,6 +202,29 @@ def per_call(func, repeat: int) -> float:
     return best * 1e3
 
 
+def print_poles(rec) -> None:
+    """Table 1b: ms per ``system(p).poles(below)`` for q2 and q2 with a linear effect, ratio to q2.
+
+    A free decay's likelihood needs only the poles under the DAQ stopband (``below`` = 2 pi 0.5
+    fs, as ``BeamModel.free_decay_basis`` asks) and their mode shapes, not the transfer function;
+    q2 alone takes the per-mode Newton iteration, q2 with an effect the Rayleigh functional one.
+    """
+    q2, below = dict(BASES)["q2"], 2 * np.pi * STOPBAND * rec.fs
+    print(f"1b. Poles with memory (what a free decay's likelihood needs): ms per system(p).poles(below = "
+          f"{below / (2 * np.pi):g} Hz) (best of 30 batches of 10 calls), ratio to q2")
+    print(f"{'model':44} {'form':>9}" + "".join(f" {f'N={N} ms':>9} {'ratio':>8}" for N in SIZES))
+    rows = [("q2", {}, ())] + [(f"q2 + {name}", extra, (name,)) for name, extra in LINEAR[:3]]
+    base = None
+    for label, extra, effects in rows:
+        p = {**q2, **extra}
+        models = {N: BeamModel(rec, "q2", N, effects=effects) for N in SIZES}
+        ms = {N: c.best_time(lambda m=m, p=p: m.system(p).poles(below), 10, 30) * 1e3 for N, m in models.items()}
+        base = base or ms
+        print(f"{label:44} {models[16].system(p).form:>9}"
+              + "".join(f" {ms[N]:9.2f} {ms[N] / base[N]:8.2f}" for N in SIZES))
+    print()
+
+
 FINE = 16          # solve_ivp's acceleration is sampled at dt/FINE before the passband W
 
 
@@ -223,7 +251,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="solve_ivp on 0.25 s instead of 0.5 s")
     parser.add_argument("--wall", action="store_true", help="wall time instead of process CPU time")
-    parser.add_argument("--linear-only", action="store_true", help="only table 1 (about 1 minute)")
+    parser.add_argument("--linear-only", action="store_true", help="only tables 1 and 1b (about 1 minute)")
     args = parser.parse_args(argv)
     if args.wall:
         c.CLOCK["clock"] = time.perf_counter
@@ -244,18 +272,19 @@ def main(argv=None) -> int:
     # 1. linear effects ------------------------------------------------------------------
     print("1. Linear effects: ms per simulate (best of 30 batches of ~50 ms; 3 single calls above 50 ms), "
           "ratio to the base model")
-    print(f"{'model':44} {'form':>9} {'N=16 ms':>9} {'ratio':>8} {'N=32 ms':>9} {'ratio':>8}")
+    print(f"{'model':44} {'form':>9}" + "".join(f" {f'N={N} ms':>9} {'ratio':>8}" for N in SIZES))
     for base_name, base_params in BASES:
-        base = {N: linear_ms(BeamModel(rec, base_name, N), base_params) for N in (16, 32)}
+        base = {N: linear_ms(BeamModel(rec, base_name, N), base_params) for N in SIZES}
         form = BeamModel(rec, base_name, 16).system(base_params).form
-        print(f"{base_name + ' (base)':44} {form:>9} {base[16]:9.2f} {1.0:8.2f} {base[32]:9.2f} {1.0:8.2f}")
+        print(f"{base_name + ' (base)':44} {form:>9}" + "".join(f" {base[N]:9.2f} {1.0:8.2f}" for N in SIZES))
         for name, extra in LINEAR:
             p = {**base_params, **extra}
-            ms = {N: linear_ms(BeamModel(rec, base_name, N, effects=name), p) for N in (16, 32)}
+            ms = {N: linear_ms(BeamModel(rec, base_name, N, effects=name), p) for N in SIZES}
             form = BeamModel(rec, base_name, 16, effects=name).system(p).form
             label = f"{base_name} + {name} ({', '.join(f'{k}={v:g}' for k, v in extra.items())})"
-            print(f"{label:44} {form:>9} {ms[16]:9.2f} {ms[16] / base[16]:8.2f} {ms[32]:9.2f} {ms[32] / base[32]:8.2f}")
+            print(f"{label:44} {form:>9}" + "".join(f" {ms[N]:9.2f} {ms[N] / base[N]:8.2f}" for N in SIZES))
     print()
+    print_poles(rec)
 
     if args.linear_only:
         return 0

@@ -16,7 +16,7 @@ Times ``model.simulate(params)`` for q1, q2, q3 at N = 16 and 32 on the 4 s, 204
 
 Then the missing-physics effects (issue #6) on the same recording: ``benchmarks/effects.py``, run
 from here (its tables 1-3: each linear effect against its base model, drag and friction against
-100 ms, solve_ivp on the same nonlinear systems; with ``--quick`` its table 1 alone).
+100 ms, solve_ivp on the same nonlinear systems; with ``--quick`` its tables 1 and 1b alone).
 
 See benchmarks/README.md for what is measured and why; _common.py for the building blocks.
 """
