@@ -38,6 +38,12 @@ def paper_operators(n_intervals: int = 16, m_T: float = 0.0, J: float = 0.0) -> 
     return BeamOperators(SplineBasis(LENGTH, n_intervals), rho_a=RHO_A, m_T=m_T, J=J)
 
 
+def state_matrix(M, D, K) -> np.ndarray:
+    """First-order state matrix [[0, I], [-M^-1 K, -M^-1 D]] of M w'' + D w' + K w = f (K may be complex)."""
+    n, minv = M.shape[0], np.linalg.inv(M)
+    return np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ K, -minv @ D]])
+
+
 def gaussian(t, centre: float, std: float, peak: float = 1.0):
     """peak * exp(-(t - centre)^2 / (2 std^2)): a force whose spectrum is exp(-(2 pi f std)^2 / 2)."""
     return peak * np.exp(-0.5 * ((np.asarray(t) - centre) / std) ** 2)

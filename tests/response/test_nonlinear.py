@@ -23,6 +23,7 @@ from bayesbeam.response import nonlinear as nl
 from bayesbeam.response.linear import respond
 from bayesbeam.response.system import SecondOrderSystem
 from tests.physics.effects.helpers import PAPER_EI, half_sine, recording
+from tests.reference import state_matrix
 
 #: aluminium strip 0.5 m x 25 mm x 3 mm with a 50 g tip block (data/examples/alu_q1_release)
 ALU = Beam(0.5, 2700.0, 7.5e-5, 5.625e-11, 7.0e10)
@@ -116,7 +117,7 @@ def friction_reference(model, params, t_end, x0, scan):
     n, e, F_c = M.shape[0], model.ops.tip_value, params["F_c"]
     minv = np.linalg.inv(M)
     me, mu = minv @ e, e @ minv @ e
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ K, -minv @ D]])
+    A = state_matrix(M, D, K)
     b = np.concatenate([np.zeros(n), me])
     hold = np.concatenate([e @ minv @ K, e @ minv @ D]) / mu       # g = hold @ x when stuck
     vel = np.concatenate([np.zeros(n), e])
@@ -175,7 +176,7 @@ def forced_friction_reference(model, params, t_end, pre: int = 128, rtol: float 
     system = model.system(params)
     n, e, F_c = system.size, model.ops.tip_value, params["F_c"]
     minv = np.linalg.inv(system.M)
-    A = np.block([[np.zeros((n, n)), np.eye(n)], [-minv @ system.K, -minv @ system.D]])
+    A = state_matrix(system.M, system.D, system.K)
     b = np.concatenate([np.zeros(n), minv @ model.load])
     me = np.concatenate([np.zeros(n), minv @ e])
     vel = np.concatenate([np.zeros(n), e])

@@ -25,7 +25,7 @@ from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics.basis import SplineBasis
 from bayesbeam.physics.mechanisms import Air, TimeHysteresis
 from bayesbeam.response.system import SecondOrderSystem
-from tests.reference import EI, LENGTH, RHO_A
+from tests.reference import EI, LENGTH, RHO_A, state_matrix
 
 MEMORY = {"alpha": 0.5, "beta": 20.0, "r": np.inf}    # |G| up to 2 % of EI at mode 1: visible
 
@@ -200,13 +200,11 @@ def test_banded_form_equals_an_exact_solve_and_the_dense_one(spec, extra):
 def _frozen_kernel_poles(system):
     """Reference: per undamped mode, freeze G at the current s, take the nearest eigenvalue of the
     frozen quadratic problem (a 2n x 2n state matrix), repeat to convergence."""
-    n, out = system.size, []
+    out = []
     for s in 1j * np.sqrt(system.undamped[0].astype(complex)):
         for _ in range(60):
             k = system.K - system.relaxation(np.array([s]))[0] * system.K_h
-            a = np.block([[np.zeros((n, n)), np.eye(n)],
-                          [-np.linalg.solve(system.M, k), -np.linalg.solve(system.M, system.D)]])
-            cand = np.linalg.eigvals(a)
+            cand = np.linalg.eigvals(state_matrix(system.M, system.D, k))
             new = cand[np.argmin(np.abs(cand - s))]
             done, s = abs(new - s) <= 1e-12 * abs(s), new
             if done:
