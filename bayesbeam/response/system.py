@@ -124,14 +124,18 @@ class SecondOrderSystem:
     @cached_property
     def form(self) -> str:
         """Which modal form evaluates the transfer function exactly (see module docstring)."""
-        diag_ok = _is_diagonal(self._modal_damping)
-        if diag_ok and (self.relaxation is None or _is_diagonal(self._modal_memory)):
+        if self._diagonal:
             return "diagonal"
         if self._low_rank is not None:
             return "low_rank"
         if self.relaxation is None:
             return "complex"
         return "dense" if self._band is None else "banded"
+
+    @cached_property
+    def _diagonal(self) -> bool:
+        """Do the undamped modes diagonalise D and K_h (the ``diagonal`` form)?"""
+        return _is_diagonal(self._modal_damping) and (self.relaxation is None or _is_diagonal(self._modal_memory))
 
     @cached_property
     def _low_rank(self) -> LowRankSplit | None:
@@ -374,18 +378,19 @@ class SecondOrderSystem:
         with ``below`` (rad/s) only those with |p| < below.
 
         With a memory term the poles are roots of det Z(s) = 0 near each undamped mode: by
-        Newton's method on each modal denominator (diagonal form) or on the Rayleigh functional
-        (the other forms, :meth:`_poles_rayleigh`, which with ``below`` follows only the modes it
-        can reach: see :meth:`_tracked_modes`).
+        Newton's method on each modal denominator (diagonal form), on the secular function of the
+        ``low_rank`` form (:meth:`_poles_secular`) or on the Rayleigh functional (the other forms,
+        :meth:`_poles_rayleigh`); with ``below`` only for the modes that can reach it (see
+        :meth:`_tracked_modes`).
         """
         if self.relaxation is None:
             p = self.state_modes[0]
-        elif self.form == "diagonal":
+        elif self._diagonal:
             p = self._poles_diagonal()
         else:
-            p = self._poles_rayleigh(self._tracked_modes(below))
+            p = self._poles_with_memory(self._tracked_modes(below))
             if below is not None and p.size < self.size and np.max(np.abs(p), initial=0.0) < below:
-                p = self._poles_rayleigh(self.size)     # the margin is not shown: follow every mode
+                p = self._poles_with_memory(self.size)  # the margin is not shown: follow every mode
         p = p[(p.imag > 0) & (np.abs(p) < (np.inf if below is None else below))]
         return p[np.argsort(np.abs(p))]
 
@@ -413,6 +418,62 @@ class SecondOrderSystem:
             if np.all(np.abs(step) <= 1e-13 * np.abs(s)):
                 break
         return s
+
+    def _poles_with_memory(self, count: int) -> np.ndarray:
+        """The poles of the ``count`` lowest modes of a non-diagonal memory model."""
+        p = None if self._low_rank is None else self._poles_secular(count)
+        return self._poles_rayleigh(count) if p is None else p
+
+    def _poles_secular(self, count: int) -> np.ndarray | None:
+        r"""The poles of the ``count`` lowest modes of the ``low_rank`` form by Newton's method on
+        its secular function: O(n r^2) per mode and step where the Rayleigh iteration solves n x n.
+
+        With :math:`Z = \mathrm{diag}(z) + V T V^T` (:meth:`_transfer_low_rank`),
+        :math:`\det Z = \prod_k z_k \det(I + T R)`, :math:`R = \sum_k v_k v_k^T / z_k`. Mode m's
+        term makes :math:`\det(I + T R)` blow up at the root of :math:`z_m`; removed by the matrix
+        determinant lemma, with :math:`A = I + T R_{-m}` (R without mode m),
+
+        .. math:: g_m(s) = z_m \det(I + T R) = z_m \det A + v_m^T \mathrm{adj}(A)\, T\, v_m ,
+
+        analytic near :math:`i\omega_m`, where Newton's method starts; :math:`g_m = \det Z /
+        \prod_{k \ne m} z_k`, so its roots are roots of det Z. :math:`g_m'` analytically from
+        z', T' and R' (G'(s) by a central difference: it sets the convergence, not the root). None
+        when an iteration has not converged in 60 steps or two modes reach one root: then
+        :meth:`poles` takes the Rayleigh iteration.
+        """
+        lam = self.undamped[0]
+        v, s_d, d, s_h, h = self._low_rank
+        r, modes = v.shape[1], np.arange(count)
+        outer = (v[:, :, None] * v[:, None, :]).reshape(self.size, r * r)
+
+        def newton_step(s):
+            """g_m(s) / g_m'(s) for every followed mode m."""
+            g = self.relaxation(s)
+            ds = 1e-7 * np.abs(s)
+            dg = (self.relaxation(s + ds) - self.relaxation(s - ds)) / (2 * ds)
+            z = s[:, None] ** 2 + s[:, None] * d + lam - g[:, None] * h
+            dz = 2 * s[:, None] + d - dg[:, None] * h
+            t = s[:, None, None] * s_d - g[:, None, None] * s_h
+            dt = s_d - dg[:, None, None] * s_h
+            inv = 1.0 / z
+            inv[modes, modes] = 0.0                                       # R without mode m
+            rr, drr = ((w @ outer).reshape(count, r, r) for w in (inv, -inv * inv * dz))
+            a = np.eye(r) + t @ rr
+            det, ddet, adj, dadj = _det_adj(a, dt @ rr + t @ drr)
+            vm = v[:count, :, None]
+            q = (vm.transpose(0, 2, 1) @ adj @ t @ vm)[:, 0, 0]
+            dq = (vm.transpose(0, 2, 1) @ (dadj @ t + adj @ dt) @ vm)[:, 0, 0]
+            zm, dzm = z[modes, modes], dz[modes, modes]
+            return (zm * det + q) / (dzm * det + zm * ddet + dq)
+
+        s = 1j * np.sqrt(lam[:count].astype(complex))
+        for _ in range(60):
+            step = newton_step(s)
+            s = s - step
+            if np.all(np.abs(step) <= 1e-13 * np.abs(s)):
+                ordered = np.sort_complex(s)
+                return s if np.all(np.abs(np.diff(ordered)) > 1e-8 * np.abs(ordered[1:])) else None
+        return None
 
     def _poles_rayleigh(self, count: int) -> np.ndarray:
         r"""The poles of the ``count`` lowest modes by Rayleigh functional iteration, all at once.
@@ -482,6 +543,20 @@ def _small_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     x0 = (a[:, 1, 1, None] * b[:, 0] - a[:, 0, 1, None] * b[:, 1]) / det[:, None]
     x1 = (a[:, 0, 0, None] * b[:, 1] - a[:, 1, 0, None] * b[:, 0]) / det[:, None]
     return np.stack([x0, x1], axis=1)
+
+
+def _det_adj(a: np.ndarray, da: np.ndarray):
+    """Determinant and adjugate of a stack of (k, r, r) matrices, r <= 2, and their derivatives
+    along ``da``: (det, det', adj, adj'). For r = 2 the adjugate is linear: adj' = adj(da)."""
+    if a.shape[1] == 1:
+        return a[:, 0, 0], da[:, 0, 0], np.ones_like(a), np.zeros_like(a)
+
+    def adj(x):                                   # [[d, -b], [-c, a]] of [[a, b], [c, d]]
+        return x[:, ::-1, ::-1].transpose(0, 2, 1) * np.array([[1.0, -1.0], [-1.0, 1.0]])
+
+    det = a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0]
+    ddet = da[:, 0, 0] * a[:, 1, 1] + a[:, 0, 0] * da[:, 1, 1] - da[:, 0, 1] * a[:, 1, 0] - a[:, 0, 1] * da[:, 1, 0]
+    return det, ddet, adj(a), adj(da)
 
 
 def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
