@@ -352,8 +352,9 @@ class BeamModel:
         time = self.recording.time
         return time >= exc.start if exc.kind == "free_decay" else np.ones(time.size, bool)
 
-    def free_decay_basis(self, params) -> np.ndarray:
-        """Free-decay responses as a linear map of the unknown state: (n, n_sensors, 2 n_modes).
+    def free_decay_basis(self, params, samples: slice = slice(None)) -> np.ndarray:
+        """Free-decay responses as a linear map of the unknown state: (n, n_sensors, 2 n_modes),
+        at the recording's samples ``samples`` (default all).
 
         The free response from ``start`` is a sum of damped modes,
         ``y_s(t) = Re sum_j c_sj p_j^q A_j exp(p_j (t - start))`` with complex amplitudes A_j;
@@ -364,10 +365,10 @@ class BeamModel:
         """
         system = self.system(params)
         poles = system.poles(below=2 * np.pi * STOPBAND * self.recording.fs)
-        shapes = np.stack([_null_vector(system, p) for p in poles], axis=1)
-        tau = self.recording.time - self.recording.excitation.start
-        waves = np.exp(np.outer(np.where(self.fit_mask, tau, 0.0), poles))
-        waves[~self.fit_mask] = 0.0
+        shapes = system.mode_shapes(poles)
+        tau, mask = self.recording.time[samples] - self.recording.excitation.start, self.fit_mask[samples]
+        waves = np.exp(np.outer(np.where(mask, tau, 0.0), poles))
+        waves[~mask] = 0.0
         gain = (self.rows @ shapes) * poles[None, :] ** self.orders[:, None]
         gain = gain * np.exp(-poles * self.delay(params))[None, :]
         resp = waves[:, None, :] * gain[None, :, :]
@@ -408,12 +409,3 @@ class BeamModel:
             return None
         use = True if force_window is None else bool(force_window)
         return rec.force * impact_window(rec.force) if use else rec.force
-
-
-def _null_vector(system: SecondOrderSystem, p: complex) -> np.ndarray:
-    """Right null vector of Z(p) (the mode shape of pole p), scaled to unit max amplitude."""
-    z = p**2 * system.M + p * system.D + system.K
-    if system.relaxation is not None:
-        z = z - system.relaxation(np.array([p]))[0] * system.K_h
-    vec = linalg.svd(z)[2][-1].conj()
-    return vec / vec[np.argmax(np.abs(vec))]

@@ -103,10 +103,18 @@ class BandProjection:
         """Coordinates per channel: per block, DC plus real and imaginary parts of the rest."""
         return self.n_blocks * (2 * self.n_bins - 1)
 
+    @property
+    def window(self) -> slice:
+        """The samples the coordinates depend on: the whole blocks from i0."""
+        return slice(self.i0, self.i0 + self.n_blocks * self.block)
+
     def project(self, x: np.ndarray) -> np.ndarray:
         """Coordinates of x (n_samples, ...) : array (size, ...)."""
-        seg = x[self.i0 : self.i0 + self.n_blocks * self.block]
-        seg = seg.reshape((self.n_blocks, self.block) + x.shape[1:])
+        return self.project_window(x[self.window])
+
+    def project_window(self, x: np.ndarray) -> np.ndarray:
+        """Coordinates of the samples ``x[window]`` (given alone): array (size, ...)."""
+        seg = x.reshape((self.n_blocks, self.block) + x.shape[1:])
         spec = np.fft.rfft(seg, axis=1)[:, : self.n_bins] * self.scale.reshape((1, -1) + (1,) * (x.ndim - 1))
         parts = np.concatenate([spec.real, spec[:, 1:].imag], axis=1)
         return parts.reshape((self.size,) + x.shape[1:])
@@ -224,7 +232,7 @@ class Likelihood:
         noise (``None``: the profiled noise of :meth:`profile_noise`)."""
         if not self.latent:
             return self.model.simulate(params)
-        y, basis, z, psi, s2 = self._latent(params)
+        y, basis, z, psi, s2 = self._latent(params, whole=True)
         v = self.variance(noise) if noise is not None else self._profiled_variance(z, psi, s2)
         return y + basis @ _marginal(z, psi, s2, v)[1]
 
@@ -240,12 +248,16 @@ class Likelihood:
         return noise
 
     # ------------------------------------------------------------------ latent terms
-    def _latent(self, params):
+    def _latent(self, params, whole: bool = False):
         """(model signals y (n, c), latent columns Psi (n, c, J), the band coordinates of
-        data - y (D, c) and of Psi (D, c, J), and the prior variances S^2 (J,))."""
+        data - y (D, c) and of Psi (D, c, J), and the prior variances S^2 (J,)).
+
+        A free decay's y and Psi cover only the projection's window unless ``whole``: the
+        likelihood needs no more, and a long record's modes cost in proportion to its length.
+        """
         if self.free_decay:
-            basis = self.model.free_decay_basis(params)
-            psi = self.projection.project(basis)
+            basis = self.model.free_decay_basis(params, slice(None) if whole else self.projection.window)
+            psi = self.projection.project(basis) if whole else self.projection.project_window(basis)
             col_rms = np.sqrt(np.mean(psi**2, axis=(0, 1)))
             s2 = (10.0 * self._data_rms / np.maximum(col_rms, np.finfo(float).tiny)) ** 2
             return np.zeros(basis.shape[:2]), basis, self.z_data, psi, s2

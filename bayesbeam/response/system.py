@@ -394,6 +394,33 @@ class SecondOrderSystem:
         p = p[(p.imag > 0) & (np.abs(p) < (np.inf if below is None else below))]
         return p[np.argsort(np.abs(p))]
 
+    def dynamic_stiffness(self, s: np.ndarray) -> np.ndarray:
+        """Z(s) = s^2 M + s D + K - G(s) K_h for every s: (len(s), n, n) (N/m)."""
+        s = np.asarray(s, dtype=complex)[:, None, None]
+        z = s * s * self.M + s * self.D + self.K
+        return z if self.relaxation is None else z - self.relaxation(s[:, 0, 0])[:, None, None] * self.K_h
+
+    def mode_shapes(self, poles: np.ndarray) -> np.ndarray:
+        """The right null vector of Z(p) for every pole p, scaled to unit largest entry: (n, len(poles)).
+
+        One step of inverse iteration, Z(p) x = b for a fixed b with no symmetry: at a pole
+        accurate to rounding, Z(p) is singular to rounding and x its null vector to the same
+        accuracy, for an LU solve instead of an SVD (a tenth of the cost). An SVD where the solve
+        fails (an exactly zero pivot) or leaves a residual above 1e-8 |Z| |x|.
+        """
+        z = self.dynamic_stiffness(poles)
+        b = np.cos(1.3 * np.arange(self.size) + 0.7)
+        try:
+            x = np.linalg.solve(z, np.broadcast_to(b, (len(poles), self.size))[:, :, None])[:, :, 0]
+        except np.linalg.LinAlgError:
+            x = np.full((len(poles), self.size), np.nan, dtype=complex)
+        for k in range(len(poles)):
+            residual = np.linalg.norm(z[k] @ x[k]) if np.all(np.isfinite(x[k])) else np.inf
+            if not residual <= 1e-8 * np.linalg.norm(z[k]) * np.linalg.norm(x[k]):
+                x[k] = np.linalg.svd(z[k])[2][-1].conj()
+        x /= x[np.arange(len(poles)), np.argmax(np.abs(x), axis=1)][:, None]
+        return x.T
+
     def _tracked_modes(self, below: float | None) -> int:
         """How many of the lowest undamped modes to follow for the poles under ``below``: those with
         omega_m < 2 below. A pole lies within its mode's softening of omega_m, and the softening by a

@@ -278,6 +278,29 @@ def test_free_decay_marginal_likelihood_equals_dense_gaussian(free_decay, noise)
     assert lik.log_likelihood(params, nz) == pytest.approx(dense, rel=1e-9)
 
 
+def test_free_decay_likelihood_of_a_window_needs_only_the_window(free_decay):
+    """A projection of samples 16-47 of the 64: the likelihood builds the free-decay basis on
+    those samples alone (a long record's modes then cost what its window does), and equals the
+    dense Gaussian of the whole basis projected (relative 1e-9, as above); predict() still covers
+    every sample."""
+    model, _, params, nz = free_decay
+    proj = BandProjection(256.0, 16, 48, 16, 60.0)
+    assert proj.window == slice(16, 48)
+    lik = Likelihood(model, proj, "white")
+    whole = model.free_decay_basis(params)
+    np.testing.assert_array_equal(model.free_decay_basis(params, proj.window), whole[16:48])
+    psi = proj.project(whole)
+    np.testing.assert_array_equal(proj.project_window(whole[16:48]), psi)
+    z = proj.project(model.recording.signals)
+    s2 = (10 * np.sqrt(np.mean(z**2)) / np.sqrt(np.mean(psi**2, axis=(0, 1)))) ** 2
+    p = psi.reshape(z.size, -1)
+    cov = np.diag(lik.variance(nz).ravel()) + p @ np.diag(s2) @ p.T
+    assert np.linalg.cond(cov) < COND
+    dense = stats.multivariate_normal(mean=np.zeros(z.size), cov=cov).logpdf(z.ravel())
+    assert lik.log_likelihood(params, nz) == pytest.approx(dense, rel=1e-9)
+    assert lik.predict(params, nz).shape == model.recording.signals.shape
+
+
 def test_free_decay_pointwise_terms_use_the_posterior_mean_amplitudes(free_decay):
     """Pointwise terms of a free decay: Gaussian terms of y - Psi a_hat, a_hat the posterior mean
     (S^-2 + Psi^T V^-1 Psi)^-1 Psi^T V^-1 y, computed densely (relative 1e-8)."""
