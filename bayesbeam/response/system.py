@@ -349,11 +349,18 @@ class SecondOrderSystem:
         return h - _small_product(p, _small_product(t, _small_solve(capacitance, q)))
 
     def _modal_dynamic_stiffness(self, s: np.ndarray) -> np.ndarray:
-        lam = self.undamped[0]
-        d_m, kh_m = self._modal_damping, self._modal_memory
-        eye = np.eye(self.size)
-        return (s[:, None, None] ** 2 * eye + s[:, None, None] * d_m + np.diag(lam)
-                - self.relaxation(s)[:, None, None] * kh_m)
+        """Z(s) in undamped modal coordinates, s^2 I + s D_m + diag(omega^2) - G(s) K_h,m: (len(s), n, n)."""
+        return self._modal_stack(s[:, None] ** 2 + self.undamped[0], s, self.relaxation(s))
+
+    def _modal_stack(self, diagonal: np.ndarray, c_d: np.ndarray, c_h: np.ndarray) -> np.ndarray:
+        """diag(diagonal_k) + c_d,k D_m - c_h,k K_h,m for every k: (k, n, n), in two passes over the
+        stack (one without damping) where the sum of broadcast terms took five."""
+        out = -c_h[:, None, None] * self._modal_memory
+        if np.any(self._modal_damping):
+            out += c_d[:, None, None] * self._modal_damping
+        idx = np.arange(self.size)
+        out[:, idx, idx] += diagonal
+        return out
 
     @cached_property
     def _modal_state_modes(self) -> tuple[np.ndarray, np.ndarray]:
@@ -517,19 +524,19 @@ class SecondOrderSystem:
         """
         lam = self.undamped[0][:count]
         s = 1j * np.sqrt(lam.astype(complex))
-        x = np.eye(self.size, dtype=complex)[:count]             # row m: mode m's shape
-        eye = np.eye(self.size)
+        x = np.eye(self.size, dtype=complex)[:count, :, None]    # mode m's shape, a column
         for _ in range(60):
             ds = 1e-7 * np.abs(s)
             dg = (self.relaxation(s + ds) - self.relaxation(s - ds)) / (2 * ds)
             z = self._modal_dynamic_stiffness(s)
-            dz = 2 * s[:, None, None] * eye + self._modal_damping - dg[:, None, None] * self._modal_memory
+            dz = self._modal_stack(np.broadcast_to(2 * s[:, None], (count, self.size)), np.ones(count), dg)
             try:
-                x = np.linalg.solve(z, np.einsum("mij,mj->mi", dz, x)[:, :, None])[:, :, 0]
+                x = np.linalg.solve(z, dz @ x)
             except np.linalg.LinAlgError:                        # Z(s) singular: s is a root
                 break
             x /= np.linalg.norm(x, axis=1)[:, None]
-            step = np.einsum("mi,mij,mj->m", x, z, x) / np.einsum("mi,mij,mj->m", x, dz, x)
+            xt = x.transpose(0, 2, 1)
+            step = (xt @ z @ x)[:, 0, 0] / (xt @ dz @ x)[:, 0, 0]
             s = s - step
             if np.all(np.abs(step) <= 1e-13 * np.abs(s)):
                 break
