@@ -239,7 +239,7 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
     of a 4 s paper record at N = 48, seven times q2's, benchmarks/effects.py; the ``dense`` one
     where Z has no narrow band: 207 ms at N = 32), so its fits would take most of a diagnosis's
     time. A free decay's likelihood needs only the poles under the stopband and their mode shapes
-    (its whole likelihood 1.6-2.9 x q2's on the real record for q2 + axial_load, table 1c
+    (its whole likelihood 1.7-2.5 x q2's on the real record for q2 + axial_load, table 1c
     there), so nothing is left out there. Judged at ``known`` values and the default priors'
     medians for the rest (the form does not depend on N; N = 6 here)."""
     if rec.excitation.kind == "free_decay":
