@@ -375,16 +375,20 @@ class BeamModel:
         return np.concatenate([resp.real, -resp.imag], axis=2)
 
     def fit_initial(self, params, signals: np.ndarray | None = None,
-                    weights: np.ndarray | None = None) -> np.ndarray:
+                    weights: np.ndarray | None = None, samples: slice = slice(None)) -> np.ndarray:
         """Least-squares coefficients of :meth:`free_decay_basis` for ``signals`` (variable projection).
 
         ``weights`` (n_sensors,) scale each channel's residual, e.g. 1/noise sd; default 1/RMS.
+        ``samples``: the samples fitted (default all; those before ``start`` never count), e.g.
+        the window a likelihood analyses: a record that runs on past it may decay differently
+        there (a non-stationary damping, or a model whose damping is wrong), and fitted over
+        all of it the amplitudes would not be the window's.
         """
-        y = self.recording.signals if signals is None else signals
-        mask = self.fit_mask
+        y = (self.recording.signals if signals is None else signals)[samples]
+        mask = self.fit_mask[samples]
         if weights is None:
             weights = 1.0 / np.sqrt(np.mean(y[mask] ** 2, axis=0))
-        basis = self.free_decay_basis(params)[mask] * weights[None, :, None]
+        basis = self.free_decay_basis(params, samples)[mask] * weights[None, :, None]
         a = basis.reshape(-1, basis.shape[-1])
         coef, *_ = linalg.lstsq(a, (y[mask] * weights[None, :]).ravel())
         return coef

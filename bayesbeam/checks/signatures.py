@@ -186,10 +186,12 @@ class _Evaluator:
                                "curvature": np.zeros(m), "phase": mode_phases(y, s)})
 
     def simulate(self, params) -> np.ndarray:
-        """The noise-free signals; a free decay's unknown initial state by least squares (weights 1/sigma)."""
+        """The noise-free signals; a free decay's unknown initial state by least squares (weights
+        1/sigma) on the analysed window."""
         if self.model.recording.excitation.kind != "free_decay":
             return self.model.simulate(params)
-        return self.model.simulate(params, self.model.fit_initial(params, weights=1 / self.setting.sigma))
+        s = self.setting
+        return self.model.simulate(params, self.model.fit_initial(params, weights=1 / s.sigma, samples=s.projection.window))
 
 
 @dataclass
