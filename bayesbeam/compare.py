@@ -33,6 +33,11 @@ from bayesbeam.inference.screens import bic, laplace_log_evidence, pointwise_mat
 DEFAULT_MODELS = ("q1", "q2", "q3", "air", "strain_rate")
 #: Kass & Raftery (1995) on the 2 ln B scale (2, 6, 10), as ln B in nats
 KASS_RAFTERY = ((5.0, "very strong"), (3.0, "strong"), (1.0, "positive"), (0.0, "not worth more than a bare mention"))
+#: a model's evidence has not settled when its SMC repeats spread by more than this (nats; the
+#: settled runs of the shipped studies spread by 0.02-0.18) ...
+EVIDENCE_SD_MAX = 1.0
+#: ... or its pooled posterior's R-hat over the repeats exceeds this (settled runs: 1.000-1.030)
+R_HAT_MAX = 1.05
 
 
 @dataclass
@@ -205,6 +210,20 @@ def strength(log_bayes_factor: float) -> str:
     return KASS_RAFTERY[-1][1]
 
 
+def unsettled_evidence(model: dict) -> str | None:
+    """Why a model's evidence has not settled (its SMC repeats disagree, :data:`EVIDENCE_SD_MAX`, or
+    its pooled posterior's R-hat is high, :data:`R_HAT_MAX`), or None."""
+    reasons = []
+    if model["log_evidence_sd"] > EVIDENCE_SD_MAX:
+        repeats = model.get("evidence", {}).get("repeats")
+        spread = f"repeats {min(repeats):.1f} to {max(repeats):.1f} nats, " if repeats else ""
+        reasons.append(f"{spread}sd {model['log_evidence_sd']:.1f} nats")
+    r_hat = max((v["r_hat"] for v in model.get("posterior", {}).values()), default=1.0)
+    if r_hat > R_HAT_MAX:
+        reasons.append(f"R-hat up to {r_hat:.2f}")
+    return ", ".join(reasons) or None
+
+
 def verdict(ranking, models) -> str:
     """A plain-language paragraph: which model, how sure, and whether it fits."""
     best = ranking[0]
@@ -221,6 +240,11 @@ def verdict(ranking, models) -> str:
         if lbf < 3 * sd:
             text.append("That difference is within three standard errors of the evidence estimates: "
                         "more SMC repeats or particles are needed before ranking these two.")
+    unsettled = [f"{m} ({why})" for m in ranking if (why := unsettled_evidence(models[m]))]
+    if unsettled:
+        text.append(f"Not settled: {'; '.join(unsettled)}. The SMC runs of such a model disagree, so "
+                    "its evidence and its place in the ranking are not established (a run that misses "
+                    "the posterior's mode errs low); rerun it with more --particles or --repeats.")
     failed = [k for k, v in b["ppc"].items() if v["p_value"] is not None and v["p_value"] < 0.01]
     if failed:
         text.append(f"But the best model does not reproduce everything in the recording: posterior "

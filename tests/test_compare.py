@@ -90,3 +90,28 @@ def test_a_verdict_whose_best_model_fails_its_checks_points_to_the_diagnosis():
     assert "ljung_box" in failing and "not a verdict on the mechanism" in failing and "bayesbeam diagnose" in failing
     passing = verdict(["q2", "q1"], {"q2": entry(-1225.0, 0.4), "q1": entry(-1586.0, 1e-6)})
     assert "checks pass" in passing and "diagnose" not in passing
+
+
+def test_a_verdict_names_the_models_whose_evidence_has_not_settled():
+    """The real record with a sensor mass and an axial load (session 8): q3's three SMC repeats gave
+    851.6, 242.0 and 303.3 nats (sd 194) with R-hat 1.10, while the winner's agreed to 0.1. The
+    verdict must say that q3's place is not established; settled models (sd <= 1 nat, R-hat <=
+    1.05: the shipped studies' runs spread by 0.02-0.18 nats, R-hat <= 1.03) are not named."""
+    from bayesbeam.compare import verdict
+
+    def entry(log_z, sd, r_hat, repeats=None):
+        return {"mechanisms": ["air", "strain_rate"], "effects": [], "probability": 1.0, "log_evidence": log_z,
+                "log_evidence_sd": sd, "log_bayes_factor_vs_best": log_z - 2947.1,
+                "evidence": {"repeats": repeats or [log_z] * 3}, "posterior": {"EI": {"r_hat": r_hat}},
+                "ppc": {"ljung_box": {"p_value": 0.5}}}
+
+    models = {"q1": entry(2947.1, 0.05, 1.004), "q2": entry(1915.0, 0.04, 1.000),
+              "q3": entry(465.7, 193.8, 1.099, [851.6, 242.0, 303.3])}
+    text = verdict(["q1", "q2", "q3"], models)
+    assert "Not settled: q3 (repeats 242.0 to 851.6 nats, sd 193.8 nats, R-hat up to 1.10)" in text
+    named = text.split("Not settled: ")[1].split(". The SMC")[0]
+    assert "q1" not in named and "q2" not in named
+    models["q3"] = entry(465.7, 0.3, 1.07)
+    assert "Not settled: q3 (R-hat up to 1.07)" in verdict(["q1", "q2", "q3"], models)
+    models["q3"] = entry(465.7, 0.3, 1.02)
+    assert "Not settled" not in verdict(["q1", "q2", "q3"], models)
