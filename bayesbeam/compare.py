@@ -7,7 +7,9 @@ For each model (a preset or ``+``-joined mechanisms, optionally with effects):
 2. **Evidence** (:mod:`bayesbeam.inference.evidence`): ``repeats`` independent SMC runs from the
    Laplace reference; log Z is their mean, its sd the standard error over repeats. The final
    particles of all repeats are the posterior draws (one "chain" per repeat; R-hat across
-   repeats is the convergence check).
+   repeats is the convergence check). Repeats that spread by more than
+   :data:`EVIDENCE_SD_MAX` are run again from a reference fitted to their posterior particles
+   (:func:`settle`).
 3. **Screens**, each labelled with what it assumes: BIC and the Laplace approximation at the
    optimum, and PSIS leave-future-out over the likelihood's time blocks
    (:mod:`bayesbeam.inference.screens`).
@@ -19,13 +21,13 @@ Models, and the repeats of each model's evidence, are independent jobs for an ex
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from bayesbeam.checks.ppc import N_REPLICATES, mode_table, posterior_predictive_check
 from bayesbeam.executors import SerialExecutor
-from bayesbeam.inference.evidence import combine_runs, laplace_reference, smc
+from bayesbeam.inference.evidence import combine_runs, laplace_reference, matched_reference, smc
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
 from bayesbeam.inference.screens import bic, laplace_log_evidence, pointwise_matrix, psis_lfo, psis_loo
 
@@ -136,6 +138,8 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     say(f"evidence: {len(smc_args)} SMC runs ({config.repeats} per model)")
     runs = executor.map(smc_job, smc_args)
     evidences = {m: combine_runs([r for r, o in zip(runs, owners) if o == m]) for m in models}
+    evidences = settle(evidences, {m: p.posterior for m, (p, _, _) in zip(models, stage1)},
+                       {m: a[3] for m, a in zip(owners, smc_args)}, seeds[1], executor, say)
     say("posterior predictive checks")
     posteriors = [problem.posterior for problem, _, _ in stage1]
     checks = executor.map(check_job, [(post, evidences[m].samples.reshape(-1, post.ndim), _seed(seeds[2], i),
@@ -149,6 +153,28 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
                                      pointwise)
     summary = summarise(rec, results, time.perf_counter() - started)
     return results, summary
+
+
+def settle(evidences: dict, posteriors: dict, particles: dict, seeds, executor, say) -> dict:
+    """A second evidence pass for every model whose repeats spread by more than
+    :data:`EVIDENCE_SD_MAX`, from a reference fitted to its first pass's posterior particles
+    (:func:`~bayesbeam.inference.evidence.matched_reference`; why there), as many repeats again;
+    it replaces the first, which stays in ``Evidence.first_pass``. Others are returned as they are.
+    """
+    retry = [m for m, e in evidences.items() if e.log_z_sd > EVIDENCE_SD_MAX]
+    if not retry:
+        return evidences
+    say(f"evidence not settled for {', '.join(retry)}: a second pass from its posterior particles")
+    args, owners = [], []
+    for m in retry:
+        reference = matched_reference(posteriors[m].priors, evidences[m])
+        i = list(evidences).index(m)
+        for r in range(len(evidences[m].runs)):
+            args.append((posteriors[m], reference, _seed(seeds, i * 1000 + 500 + r), particles[m]))
+            owners.append(m)
+    runs = executor.map(smc_job, args)
+    second = {m: combine_runs([r for r, o in zip(runs, owners) if o == m]) for m in retry}
+    return {m: replace(second[m], first_pass=e) if m in second else e for m, e in evidences.items()}
 
 
 def _seed(seq, i) -> int:

@@ -115,3 +115,34 @@ def test_a_verdict_names_the_models_whose_evidence_has_not_settled():
     assert "Not settled: q3 (R-hat up to 1.07)" in verdict(["q1", "q2", "q3"], models)
     models["q3"] = entry(465.7, 0.3, 1.02)
     assert "Not settled" not in verdict(["q1", "q2", "q3"], models)
+
+
+def test_evidence_that_has_not_settled_gets_a_second_pass_from_its_posterior_particles(monkeypatch):
+    """settle() reruns only the models whose repeats spread by more than EVIDENCE_SD_MAX, as many
+    repeats again, from the matched reference; the second pass replaces the first, which is kept
+    (and reported under evidence.first_pass)."""
+    from types import SimpleNamespace
+
+    import bayesbeam.compare as cmp
+    from bayesbeam.executors import SerialExecutor
+    from bayesbeam.inference.evidence import combine_runs
+
+    def run(log_z):
+        return SimpleNamespace(log_z=log_z, betas=np.array([0.0, 1.0]), particles=np.zeros((4, 2)),
+                               n_evaluations=4, seconds=0.0)
+
+    calls = []
+    monkeypatch.setattr(cmp, "matched_reference", lambda priors, evidence: ("matched", evidence.log_z))
+    monkeypatch.setattr(cmp, "smc_job", lambda args: calls.append(args) or run(3132.8 + 1e-3 * len(calls)))
+    first = {"q1": combine_runs([run(2947.1), run(2947.2), run(2947.0)]),
+             "q3": combine_runs([run(851.6), run(242.0), run(303.3)])}
+    posteriors = {m: SimpleNamespace(priors=None) for m in first}
+    said = []
+    out = cmp.settle(first, posteriors, {"q1": 224, "q3": 224}, np.random.SeedSequence(1), SerialExecutor(), said.append)
+    assert out["q1"] is first["q1"]
+    assert len(calls) == 3 and all(a[1] == ("matched", first["q3"].log_z) and a[3] == 224 for a in calls)
+    assert abs(out["q3"].log_z - 3132.8) < 0.01 and out["q3"].first_pass is first["q3"]
+    assert out["q3"].as_dict()["first_pass"]["repeats"] == [851.6, 242.0, 303.3]
+    assert "q3" in said[0] and "q1" not in said[0]
+    assert cmp.settle({"q1": first["q1"]}, posteriors, {"q1": 224}, np.random.SeedSequence(1), SerialExecutor(),
+                      said.append) == {"q1": first["q1"]}

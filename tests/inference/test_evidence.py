@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bayesbeam.inference.evidence import Reference, combine_runs, laplace_reference, smc
+from bayesbeam.inference.evidence import Reference, combine_runs, laplace_reference, matched_reference, smc
 from bayesbeam.inference.fit import FitConfig, prepare
 from bayesbeam.inference.priors import Prior
 from bayesbeam.inference.sampler import find_optimum
@@ -30,6 +30,9 @@ class NormalPrior:
 
     def log_density(self, z):
         return -0.5 * (z / self.sd) ** 2 - np.log(self.sd * np.sqrt(2 * np.pi))
+
+    def bounds(self):
+        return -np.inf, np.inf
 
 
 @pytest.fixture(scope="module")
@@ -67,6 +70,20 @@ def test_smc_from_a_laplace_reference_matches_and_recovers_the_posterior(linear_
     draws = evidence.samples.reshape(-1, 4)
     # 900 draws: the mean is within 4 standard errors (sd / 30) of the exact posterior mean
     assert np.all(np.abs(draws.mean(axis=0) - mean) < 4 * np.sqrt(np.diag(cov)) / 30)
+
+
+def test_a_reference_matched_to_posterior_particles_settles_the_evidence_in_few_stages(linear_gaussian):
+    """A first pass from a reference 20 posterior sd off and 10 times too narrow needs many stages;
+    a second from :func:`matched_reference` (its particles' mean and covariance) needs at most two
+    and matches the analytic log Z to 0.2 nats (as the Laplace reference above)."""
+    terms, priors, log_z, mean, cov = linear_gaussian
+    far = Reference(priors, np.ones(4, bool), mean + 20 * np.sqrt(np.diag(cov)), 0.01 * cov)
+    first = combine_runs([smc(terms, far, np.random.default_rng(k), n_particles=300) for k in range(3)])
+    assert min(len(r.betas) - 1 for r in first.runs) > 4
+    matched = matched_reference(priors, first)
+    second = combine_runs([smc(terms, matched, np.random.default_rng(10 + k), n_particles=300) for k in range(3)])
+    assert max(len(r.betas) - 1 for r in second.runs) <= 2
+    assert abs(second.log_z - log_z) < 0.2
 
 
 def test_reference_density_is_normalised():
