@@ -287,8 +287,8 @@ def matched_reference(priors, evidence: Evidence) -> Reference:
     far as its moves keep up with the tempered targets. From a reference far from the posterior
     (an optimum off the mode, a Laplace covariance too narrow) a run needs many stages, its
     particles lag, and log Z errs low, by thousands of nats on the real record's q3 with a sensor
-    mass and an axial load (studies/real_steel_cantilever/compare_structure: the first pass's 22-23
-    stages against two from this reference).
+    mass and an axial load (studies/real_steel_cantilever/compare_structure: 242-852 nats in 22-24
+    stages on the first pass, 3132.8-3133.1 in five from this reference).
     """
     samples = evidence.samples.reshape(-1, evidence.samples.shape[-1])
     return laplace_reference(priors, samples.mean(axis=0), np.cov(samples, rowvar=False))
