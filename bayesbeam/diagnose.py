@@ -177,7 +177,8 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         if not beam_regions(mismatch) and ranking.p_value >= ALPHA:
             say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")
             break
-        chosen, left_out = _fittable(rec, current, _candidates(ranking, mismatch, config.candidates), round_)
+        chosen, left_out = _fittable(rec, current, _candidates(ranking, mismatch, config.candidates,
+                                                                  rec.excitation.kind == "free_decay"), round_)
         not_fitted += left_out
         for n in left_out:
             say(f"round {round_}: not fitting {n.model}: {n.reason}")
@@ -306,9 +307,13 @@ DECAY_SHAPE = {1: "quadratic_drag",      # damping falls as the vibration decays
                -1: "dry_friction"}       # damping rises as the vibration decays
 
 
-def _candidates(ranking, mismatch: Mismatch, n: int) -> list:
+def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False) -> list:
     """The supported candidates in ranking order (at least the top one, at most ``n``), and the
-    effect the decay shapes point to (:func:`amplitude_dependence`).
+    effect the decay shapes point to (:func:`amplitude_dependence`). On a free decay with none
+    supported, every ranked candidate: there the screen has no excitation time (no phases) and
+    fits the initial state freely (little left in the amplitudes), beside a memory baseline it
+    projected a sensor mass and an axial load worth 1800 nats to nothing (the real record,
+    studies/real_steel_cantilever), and a free decay's fits take seconds.
 
     Only drag and friction make the damping depend on amplitude, so a bent decay is direct
     evidence for one of them. Their signature screen is linearised about zero, and at realistic
@@ -316,7 +321,7 @@ def _candidates(ranking, mismatch: Mismatch, n: int) -> list:
     mode 1's damping): the screen can miss them, so the decay shape adds them.
     """
     supported = [c for c in ranking.candidates if c.supported]
-    chosen = (supported or ranking.candidates[:1])[:n]
+    chosen = supported[:n] or (list(ranking.candidates) if free_decay else ranking.candidates[:1])
     shapes = amplitude_dependence(mismatch)
     return chosen + [c for c in ranking.candidates if c.effect in shapes and c not in chosen]
 

@@ -127,6 +127,24 @@ def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["quadratic_drag", "dry_friction"]
 
 
+def test_on_a_free_decay_with_no_candidate_supported_every_ranked_one_is_fitted():
+    """A force record fits only the top one when the screen supports none; a free decay fits all of
+    them (its screen is weaker and its fits cheap: the real record's blind chain missed a sensor
+    mass and an axial load that way). A supported candidate still decides alone."""
+    from bayesbeam.diagnose import _candidates
+
+    def cand(effect, supported):
+        return SimpleNamespace(effect=effect, supported=supported)
+
+    plain = SimpleNamespace(modes=[_mode(0.01, 0.3)])
+    names = ["root_compliance", "sensor_mass", "axial_load", "measurement_delay"]
+    ranking = SimpleNamespace(candidates=[cand(e, False) for e in names])
+    assert [c.effect for c in _candidates(ranking, plain, 2)] == ["root_compliance"]
+    assert [c.effect for c in _candidates(ranking, plain, 2, free_decay=True)] == names
+    ranking.candidates[2] = cand("axial_load", True)
+    assert [c.effect for c in _candidates(ranking, plain, 2, free_decay=True)] == ["axial_load"]
+
+
 def test_the_decay_screen_is_looser_than_the_maps_flag_and_counts_the_modes():
     """The paper beam's drag: mode 3's curvature 4 sd off (p = 2.9e-4) is not a map flag at four modes
     (ALPHA / 60 = 1.7e-4) but must put drag among the candidates (ALPHA / 4 = 2.5e-3); a mode at
