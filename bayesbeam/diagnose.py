@@ -440,6 +440,7 @@ def _trial_entry(t: Trial, signature) -> dict:
             "delta_log_evidence": t.log_bayes_factor, "delta_log_evidence_sd": t.log_bayes_factor_sd,
             "parameters": effect_parameters(t),
             "rms_standardized_residual": t.mismatch.rms_standardized_residual, "flags": flags(t.mismatch),
+            "noise": t.mismatch.noise,
             "decisive": t.decisive, "map_improved": t.improved, "added": t.added,
             "signature": None if signature is None else signature.to_dict()}
 

@@ -85,6 +85,7 @@ def test_diagnosis_json_has_the_issue_layout():
     candidate = summary["candidates"][0]
     assert candidate["effect"] == "root_compliance" and candidate["delta_log_evidence"] > DECISIVE
     assert {"mean", "q05", "q95"} <= set(candidate["parameters"]["k_theta"])
+    assert all({"floor_sd", "fitted_sd", "inflation"} <= set(n) for n in candidate["noise"].values())
     assert summary["final"]["model"] == "q1+root_compliance"
     # the final model's whole posterior: after a damping re-check it is not any trial's
     assert {"EI", "gamma", "cdI", "k_theta"} <= set(summary["final"]["parameters"])
