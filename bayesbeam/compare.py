@@ -127,23 +127,15 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     say(f"optimising {len(models)} models ({', '.join(models)})")
     stage1 = executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i), (starts or {}).get(m))
                                           for i, m in enumerate(models)])
-    smc_args, owners = [], []
-    for i, (model, (problem, optimum, _)) in enumerate(zip(models, stage1)):
-        post = problem.posterior
-        reference = laplace_reference(post.priors, optimum.theta, optimum.covariance)
-        particles = config.particles or max(128, 32 * post.ndim)
-        for r in range(config.repeats):
-            smc_args.append((post, reference, _seed(seeds[1], i * 1000 + r), particles))
-            owners.append(model)
-    say(f"evidence: {len(smc_args)} SMC runs ({config.repeats} per model)")
-    runs = executor.map(smc_job, smc_args)
-    evidences = {m: combine_runs([r for r, o in zip(runs, owners) if o == m]) for m in models}
-    evidences = settle(evidences, {m: p.posterior for m, (p, _, _) in zip(models, stage1)},
-                       {m: a[3] for m, a in zip(owners, smc_args)}, seeds[1], executor, say)
+    posteriors = {m: problem.posterior for m, (problem, _, _) in zip(models, stage1)}
+    say(f"evidence: {len(models) * config.repeats} SMC runs ({config.repeats} per model)")
+    evidences = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,
+                                                                   optimum.covariance), 0)
+                           for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))}, config, seeds[1], executor)
+    evidences = settle(evidences, posteriors, config, seeds[1], executor, say)
     say("posterior predictive checks")
-    posteriors = [problem.posterior for problem, _, _ in stage1]
-    checks = executor.map(check_job, [(post, evidences[m].samples.reshape(-1, post.ndim), _seed(seeds[2], i),
-                                        config.replicates) for i, (m, post) in enumerate(zip(models, posteriors))])
+    checks = executor.map(check_job, [(posteriors[m], evidences[m].samples.reshape(-1, posteriors[m].ndim),
+                                       _seed(seeds[2], i), config.replicates) for i, m in enumerate(models)])
     results = {}
     for (model, (problem, optimum, record)), (check, pointwise) in zip(zip(models, stage1), checks):
         screens = {"bic": bic(problem.posterior, optimum),
@@ -155,7 +147,20 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     return results, summary
 
 
-def settle(evidences: dict, posteriors: dict, particles: dict, seeds, executor, say) -> dict:
+def _evidence(jobs: dict, config: CompareConfig, seeds, executor) -> dict:
+    """``config.repeats`` SMC runs per model, combined: ``jobs`` maps a model to (its index, its
+    posterior, the reference, a seed offset); a run's seed is ``(index * 1000 + offset + repeat)``."""
+    args, owners = [], []
+    for m, (i, post, reference, offset) in jobs.items():
+        particles = config.particles or max(128, 32 * post.ndim)
+        for r in range(config.repeats):
+            args.append((post, reference, _seed(seeds, i * 1000 + offset + r), particles))
+            owners.append(m)
+    runs = executor.map(smc_job, args)
+    return {m: combine_runs([run for run, o in zip(runs, owners) if o == m]) for m in jobs}
+
+
+def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, say) -> dict:
     """A second evidence pass for every model whose repeats spread by more than
     :data:`EVIDENCE_SD_MAX`, from a reference fitted to its first pass's posterior particles
     (:func:`~bayesbeam.inference.evidence.matched_reference`; why there), as many repeats again;
@@ -165,15 +170,9 @@ def settle(evidences: dict, posteriors: dict, particles: dict, seeds, executor, 
     if not retry:
         return evidences
     say(f"evidence not settled for {', '.join(retry)}: a second pass from its posterior particles")
-    args, owners = [], []
-    for m in retry:
-        reference = matched_reference(posteriors[m].priors, evidences[m])
-        i = list(evidences).index(m)
-        for r in range(len(evidences[m].runs)):
-            args.append((posteriors[m], reference, _seed(seeds, i * 1000 + 500 + r), particles[m]))
-            owners.append(m)
-    runs = executor.map(smc_job, args)
-    second = {m: combine_runs([r for r, o in zip(runs, owners) if o == m]) for m in retry}
+    index = {m: i for i, m in enumerate(evidences)}
+    second = _evidence({m: (index[m], posteriors[m], matched_reference(posteriors[m].priors, evidences[m]), 500)
+                        for m in retry}, config, seeds, executor)
     return {m: replace(second[m], first_pass=e) if m in second else e for m, e in evidences.items()}
 
 

@@ -138,11 +138,12 @@ def test_evidence_that_has_not_settled_gets_a_second_pass_from_its_posterior_par
              "q3": combine_runs([run(851.6), run(242.0), run(303.3)])}
     posteriors = {m: SimpleNamespace(priors=None) for m in first}
     said = []
-    out = cmp.settle(first, posteriors, {"q1": 224, "q3": 224}, np.random.SeedSequence(1), SerialExecutor(), said.append)
+    config = cmp.CompareConfig(repeats=3, particles=224)
+    out = cmp.settle(first, posteriors, config, np.random.SeedSequence(1), SerialExecutor(), said.append)
     assert out["q1"] is first["q1"]
     assert len(calls) == 3 and all(a[1] == ("matched", first["q3"].log_z) and a[3] == 224 for a in calls)
     assert abs(out["q3"].log_z - 3132.8) < 0.01 and out["q3"].first_pass is first["q3"]
     assert out["q3"].as_dict()["first_pass"]["repeats"] == [851.6, 242.0, 303.3]
     assert "q3" in said[0] and "q1" not in said[0]
-    assert cmp.settle({"q1": first["q1"]}, posteriors, {"q1": 224}, np.random.SeedSequence(1), SerialExecutor(),
+    assert cmp.settle({"q1": first["q1"]}, posteriors, config, np.random.SeedSequence(1), SerialExecutor(),
                       said.append) == {"q1": first["q1"]}

@@ -438,14 +438,19 @@ class SecondOrderSystem:
             return self.size
         return int(np.count_nonzero(self.undamped[0] < (2.0 * below) ** 2))
 
+    def _relaxation_slope(self, s: np.ndarray) -> np.ndarray:
+        """G'(s) by a central difference (relative step 1e-7): the pole iterations' derivative, which
+        sets their convergence, not the root they converge to."""
+        ds = 1e-7 * np.abs(s)
+        return (self.relaxation(s + ds) - self.relaxation(s - ds)) / (2 * ds)
+
     def _poles_diagonal(self) -> np.ndarray:
         lam = self.undamped[0]
         d_m, kh_m = np.diag(self._modal_damping), np.diag(self._modal_memory)
         s = 1j * np.sqrt(lam.astype(complex))
         for _ in range(60):
             g = self.relaxation(s)
-            ds = 1e-7 * np.abs(s)
-            dg = (self.relaxation(s + ds) - self.relaxation(s - ds)) / (2 * ds)
+            dg = self._relaxation_slope(s)
             f = s**2 + s * d_m + lam - g * kh_m
             step = f / (2 * s + d_m - dg * kh_m)
             s = s - step
@@ -471,7 +476,7 @@ class SecondOrderSystem:
 
         analytic near :math:`i\omega_m`, where Newton's method starts; :math:`g_m = \det Z /
         \prod_{k \ne m} z_k`, so its roots are roots of det Z. :math:`g_m'` analytically from
-        z', T' and R' (G'(s) by a central difference: it sets the convergence, not the root). None
+        z', T' and R' (G'(s) by :meth:`_relaxation_slope`). None
         when an iteration has not converged in 60 steps or two modes reach one root: then
         :meth:`poles` takes the Rayleigh iteration.
         """
@@ -483,8 +488,7 @@ class SecondOrderSystem:
         def newton_step(s):
             """g_m(s) / g_m'(s) for every followed mode m."""
             g = self.relaxation(s)
-            ds = 1e-7 * np.abs(s)
-            dg = (self.relaxation(s + ds) - self.relaxation(s - ds)) / (2 * ds)
+            dg = self._relaxation_slope(s)
             z = s[:, None] ** 2 + s[:, None] * d + lam - g[:, None] * h
             dz = 2 * s[:, None] + d - dg[:, None] * h
             t = s[:, None, None] * s_d - g[:, None, None] * s_h
@@ -520,14 +524,13 @@ class SecondOrderSystem:
         inverse iteration for the mode shape and a Newton step on :math:`x^T Z(s) x = 0`
         (transposes, not conjugates: Z is complex symmetric, so x serves as left and right
         vector and the iteration converges cubically). The fixed point is a root of det Z:
-        Z(s) x = 0. G'(s) by a central difference (it changes the convergence, not the root).
+        Z(s) x = 0. G'(s) by :meth:`_relaxation_slope`.
         """
         lam = self.undamped[0][:count]
         s = 1j * np.sqrt(lam.astype(complex))
         x = np.eye(self.size, dtype=complex)[:count, :, None]    # mode m's shape, a column
         for _ in range(60):
-            ds = 1e-7 * np.abs(s)
-            dg = (self.relaxation(s + ds) - self.relaxation(s - ds)) / (2 * ds)
+            dg = self._relaxation_slope(s)
             z = self._modal_dynamic_stiffness(s)
             dz = self._modal_stack(np.broadcast_to(2 * s[:, None], (count, self.size)), np.ones(count), dg)
             try:
