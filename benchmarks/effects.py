@@ -194,6 +194,16 @@ def linear_ms(model, params) -> float:
     return c.best_time(lambda: model.simulate(params), 10, 30) * 1e3
 
 
+def print_header() -> None:
+    """Column heads of tables 1, 1b and 1c: model, transfer form, ms and ratio at every N."""
+    print(f"{'model':44} {'form':>9}" + "".join(f" {f'N={N} ms':>9} {'ratio':>8}" for N in SIZES))
+
+
+def print_row(label: str, form: str, ms: dict, base: dict) -> None:
+    """One row of those tables: ms per call at every N and its ratio to ``base`` at the same N."""
+    print(f"{label:44} {form:>9}" + "".join(f" {ms[N]:9.2f} {ms[N] / base[N]:8.2f}" for N in SIZES))
+
+
 def per_call(func, repeat: int) -> float:
     """Best of ``repeat`` single calls (ms): a nonlinear simulate is long enough to time alone."""
     best = np.inf
@@ -214,7 +224,7 @@ def print_poles(rec) -> None:
     q2, below = dict(BASES)["q2"], 2 * np.pi * STOPBAND * rec.fs
     print(f"1b. Poles with memory (what a free decay's likelihood needs): ms per system(p).poles(below = "
           f"{below / (2 * np.pi):g} Hz) (best of 30 batches of 10 calls), ratio to q2")
-    print(f"{'model':44} {'form':>9}" + "".join(f" {f'N={N} ms':>9} {'ratio':>8}" for N in SIZES))
+    print_header()
     rows = [("q2", {}, ())] + [(f"q2 + {name}", extra, (name,)) for name, extra in LINEAR[:3]]
     base = None
     for label, extra, effects in rows:
@@ -222,8 +232,7 @@ def print_poles(rec) -> None:
         models = {N: BeamModel(rec, "q2", N, effects=effects) for N in SIZES}
         ms = {N: c.best_time(lambda m=m, p=p: m.system(p).poles(below), 10, 30) * 1e3 for N, m in models.items()}
         base = base or ms
-        print(f"{label:44} {models[16].system(p).form:>9}"
-              + "".join(f" {ms[N]:9.2f} {ms[N] / base[N]:8.2f}" for N in SIZES))
+        print_row(label, models[16].system(p).form, ms, base)
     print()
 
 
@@ -252,7 +261,7 @@ def print_free_decay() -> None:
     print(f"1c. Free-decay log-likelihood on {os.path.relpath(REAL, c.ROOT)} (window {REAL_FIT['start']:g}-"
           f"{REAL_FIT['stop']:g} s, band {REAL_FIT['max_frequency']:g} Hz): ms per call (best of 20 batches "
           f"of 10), ratio to q2")
-    print(f"{'model':44} {'form':>9}" + "".join(f" {f'N={N} ms':>9} {'ratio':>8}" for N in SIZES))
+    print_header()
     rows = [("q2, basis on the whole record", {}, (), True), ("q2", {}, (), False)]
     rows += [(f"q2 + {name} ({', '.join(f'{k}={v:g}' for k, v in extra.items())})", extra, (name,), False)
              for name, extra in REAL_EFFECTS]
@@ -268,7 +277,7 @@ def print_free_decay() -> None:
         results.append((label, problem.model.system(p).form, ms))
     base = results[1][2]
     for label, form, ms in results:
-        print(f"{label:44} {form:>9}" + "".join(f" {ms[N]:9.2f} {ms[N] / base[N]:8.2f}" for N in SIZES))
+        print_row(label, form, ms, base)
     print()
 
 
@@ -319,17 +328,17 @@ def main(argv=None) -> int:
     # 1. linear effects ------------------------------------------------------------------
     print("1. Linear effects: ms per simulate (best of 30 batches of ~50 ms; 3 single calls above 50 ms), "
           "ratio to the base model")
-    print(f"{'model':44} {'form':>9}" + "".join(f" {f'N={N} ms':>9} {'ratio':>8}" for N in SIZES))
+    print_header()
     for base_name, base_params in BASES:
         base = {N: linear_ms(BeamModel(rec, base_name, N), base_params) for N in SIZES}
         form = BeamModel(rec, base_name, 16).system(base_params).form
-        print(f"{base_name + ' (base)':44} {form:>9}" + "".join(f" {base[N]:9.2f} {1.0:8.2f}" for N in SIZES))
+        print_row(base_name + " (base)", form, base, base)
         for name, extra in LINEAR:
             p = {**base_params, **extra}
             ms = {N: linear_ms(BeamModel(rec, base_name, N, effects=name), p) for N in SIZES}
             form = BeamModel(rec, base_name, 16, effects=name).system(p).form
             label = f"{base_name} + {name} ({', '.join(f'{k}={v:g}' for k, v in extra.items())})"
-            print(f"{label:44} {form:>9}" + "".join(f" {ms[N]:9.2f} {ms[N] / base[N]:8.2f}" for N in SIZES))
+            print_row(label, form, ms, base)
     print()
     print_poles(rec)
     print_free_decay()
