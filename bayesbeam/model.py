@@ -34,9 +34,12 @@ from bayesbeam.response.linear import (
     unit_sample_responses,
 )
 from bayesbeam.response.signals import impact_window
-from bayesbeam.response.system import LOW_RANK_MAX, SecondOrderSystem, undamped_modes
+from bayesbeam.response.system import LOW_RANK_MAX, ReferencePair, SecondOrderSystem, undamped_modes
 
 PARAMETER_UNITS = {"EI": "N m^2"}
+#: reference beams whose modes a model keeps (see :meth:`BeamModel._reference`): a sampler's
+#: cloud spans a few grid points, an optimiser's path some more; 32 at N = 48 hold 2.5 MB
+REFERENCES_KEPT = 32
 
 
 def split_model(spec) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -123,6 +126,7 @@ class BeamModel:
         self.grid = FrequencyGrid(recording.n_samples, recording.dt)
         self.force = self._conditioned_force(force_window)
         self.load, self.drive = self._input()
+        self._references: dict[tuple, tuple[np.ndarray, ...]] = {}
 
     @classmethod
     def from_recording(cls, recording: Recording, mechanisms="q1", n_intervals: int = 16,
@@ -188,8 +192,9 @@ class BeamModel:
         """:meth:`system` at values already checked by :meth:`values`."""
         damping, relaxation = self._damping(v)
         mass, stiffness, modes = self._mass_stiffness(v)
+        reference = self._reference(v) if modes is None and self._departures is not None else None
         system = SecondOrderSystem(mass, damping, stiffness, relaxation,
-                                   self.ops.K0 if relaxation else None, modes, self._departures)
+                                   self.ops.K0 if relaxation else None, modes, self._departures, reference)
         if relaxation is not None:
             system.check_stable()
         return system
@@ -253,6 +258,27 @@ class BeamModel:
         u, sv, _ = np.linalg.svd(np.hstack(blocks), full_matrices=False)
         rank = int(np.sum(sv > 1e-12 * sv[0])) if sv[0] > 0 else 0
         return u[:, :rank] if 0 < rank <= LOW_RANK_MAX else None
+
+    def _reference(self, v: dict[str, float]) -> ReferencePair:
+        """The reference beam (M_r, EI K_1) near these values that the effects depart from along
+        :attr:`_departures` (see :meth:`Effect.reference`), with its modes (EI omega^2 per unit EI,
+        Phi). Its matrices and modes are cached per grid point (the last
+        :data:`REFERENCES_KEPT`), so the ``low_rank`` form solves an eigenproblem only when the
+        parameters reach a new one."""
+        points = [e.reference(v) for e in self.effects]
+        key = tuple(sorted(item for p in points for item in p.items()))
+        cached = self._references.pop(key, None)
+        if cached is None:
+            ops = self.ops
+            m_r = ops.M + sum(m for e, p in zip(self.effects, points) if (m := e.mass(ops, p, self.setup)) is not None)
+            k_1 = ops.K0 + sum(k for e, p in zip(self.effects, points)
+                               if (k := e.stiffness(ops, p, self.setup)) is not None)
+            cached = (m_r, k_1, *undamped_modes(k_1, m_r))
+            if len(self._references) >= REFERENCES_KEPT:
+                self._references.pop(next(iter(self._references), None), None)   # the least recently used
+        self._references[key] = cached
+        m_r, k_1, lam_1, phi_1 = cached
+        return ReferencePair(m_r, v["EI"] * k_1, v["EI"] * lam_1, phi_1)
 
     @cached_property
     def _unit_modes(self) -> tuple[np.ndarray, np.ndarray]:

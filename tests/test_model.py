@@ -224,3 +224,28 @@ def test_free_decay_initial_state_fitted_on_a_window_ignores_the_samples_after_i
         fitted = decay.simulate(params, decay.fit_initial(params, samples=samples))[window][decay.fit_mask[window]]
         error = np.abs(fitted - inside).max() / np.abs(inside).max()
         assert (error < 1e-6) if ok else (error > 1e-2)
+
+
+def test_reference_modes_are_solved_once_per_octave_of_the_effects_parameters(monkeypatch):
+    """The low_rank form's reference beam (Effect.reference) lies on an octave grid of k_theta/EI and
+    m_s: parameters within one grid cell share one eigen-solve (EI scales the cached modes), a new
+    cell costs one more, and the model keeps at most REFERENCES_KEPT of them (least recently used
+    dropped)."""
+    import bayesbeam.model as model_module
+
+    rec, _, _ = example("paper_rootcomp_hammer")
+    model = BeamModel(rec, "q1+root_compliance+sensor_mass", 8)
+    calls = []
+    solve = model_module.undamped_modes
+    monkeypatch.setattr(model_module, "undamped_modes", lambda k, m: calls.append(1) or solve(k, m))
+    base = {"EI": 44.28, "gamma": 0.3, "cdI": 7e-5, "k_theta": 3000.0, "m_s": 0.01}
+    first = model._reference(model.values(base))
+    # k_theta/EI = 67.8 and m_s = 0.01 -> grid points 64 and 2^-7; both moves stay in their cells
+    same_cell = model._reference(model.values({**base, "EI": 50.0, "k_theta": 3300.0, "m_s": 0.009}))
+    assert len(calls) == 1
+    assert same_cell.phi is first.phi and np.allclose(same_cell.stiffness, first.stiffness * 50.0 / 44.28)
+    model._reference(model.values({**base, "k_theta": 6000.0}))          # 135.5: the next octave
+    assert len(calls) == 2
+    for i in range(model_module.REFERENCES_KEPT + 3):
+        model._reference(model.values({**base, "m_s": 0.01 * 2.0 ** (i + 1)}))
+    assert len(model._references) == model_module.REFERENCES_KEPT

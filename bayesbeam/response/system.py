@@ -22,7 +22,9 @@ exact modal forms:
     air, strain-rate and time-hysteresis damping) along r directions W (r <= 2 with a memory
     term, else r = 1): a tip body, a sensor mass, a root spring. In the modes of (K, M), D and
     K_h are diagonal plus rank r, and a Woodbury correction of the diagonal form per frequency
-    is exact (:meth:`SecondOrderSystem._transfer_low_rank`).
+    is exact (:meth:`SecondOrderSystem._transfer_low_rank`). Given a :class:`ReferencePair` (a pair
+    that M and K depart from along W, with modes the caller cached), the same correction works in
+    the reference's modes with M and K's departures added to it: no eigen-solve per call.
 ``banded``
     any other memory term whose matrices are banded (an axial load's full-rank geometric
     stiffness beside time hysteresis; the B-spline Galerkin forms couple only neighbouring
@@ -75,14 +77,48 @@ class BandOrder(NamedTuple):
     width: int              # half-bandwidth b in that order
 
 
-class LowRankSplit(NamedTuple):
-    """Modal damping and memory as diagonal plus rank r along V (see ``low_rank``)."""
+class ReferencePair(NamedTuple):
+    """A pair (M_r, K_r) that M and K depart from only along the system's ``departures``, whose
+    undamped modes (lam, Phi, mass-normalised) diagonalise D and K_h up to those directions: known
+    in advance (cached by the caller), they spare the ``low_rank`` form its eigen-solve per call."""
 
+    mass: np.ndarray        # (n, n) M_r (kg in generalised coordinates)
+    stiffness: np.ndarray   # (n, n) K_r (N/m)
+    lam: np.ndarray         # (n,) omega^2 of (K_r, M_r) (rad^2/s^2)
+    phi: np.ndarray         # (n, n) Phi with Phi^T M_r Phi = I, Phi^T K_r Phi = diag(lam)
+
+
+class LowRankSplit(NamedTuple):
+    """Z(s) in the modes Phi as diagonal plus rank r along V (see ``low_rank``)."""
+
+    lam: np.ndarray         # (n,) diagonal of Phi^T K Phi - V S_K V^T
+    phi: np.ndarray         # (n, n) the modes (Phi^T M Phi - V S_M V^T = I)
     v: np.ndarray           # (n, r) Phi^T W
+    s_m: np.ndarray | None  # (r, r) W^T (M - M_r) W; None for zero (so in the modes of (K, M))
+    s_k: np.ndarray | None  # (r, r) W^T (K - K_r) W; likewise
     s_d: np.ndarray         # (r, r)
     d: np.ndarray           # (n,) diagonal of Phi^T D Phi - V S_D V^T
     s_h: np.ndarray         # (r, r)
     h: np.ndarray           # (n,) diagonal of Phi^T K_h Phi - V S_H V^T
+
+    def coupling(self, s: np.ndarray, g: np.ndarray | None) -> np.ndarray:
+        """T(s) = s^2 S_M + s S_D + S_K - G(s) S_H for every s: (len(s), r, r). Terms that vanish
+        are skipped: each costs a pass over the frequencies."""
+        s = s[:, None, None]
+        t = s * self.s_d if self.s_m is None else s * (s * self.s_m + self.s_d)
+        if self.s_k is not None:
+            t = t + self.s_k
+        if g is not None and np.any(self.s_h):
+            t = t - g[:, None, None] * self.s_h
+        return t
+
+    def coupling_and_slope(self, s: np.ndarray, g: np.ndarray, dg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """T(s) and T'(s) = 2 s S_M + S_D - G'(s) S_H at a few s: (len(s), r, r) each."""
+        s, g, dg = s[:, None, None], g[:, None, None], dg[:, None, None]
+        t, dt = s * self.s_d - g * self.s_h, self.s_d - dg * self.s_h
+        if self.s_m is not None:
+            t, dt = t + s * s * self.s_m, dt + 2 * s * self.s_m
+        return (t, dt) if self.s_k is None else (t + self.s_k, dt)
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,6 +135,9 @@ class SecondOrderSystem:
     #: W (n, r): directions along which M and K depart from a pair whose undamped modes
     #: diagonalise D and K_h, when the caller knows them (see ``low_rank``; verified here)
     departures: np.ndarray | None = None
+    #: a pair that M and K depart from only along :attr:`departures`, with its modes (see
+    #: :class:`ReferencePair`): the ``low_rank`` form then needs no eigen-solve
+    reference: ReferencePair | None = None
 
     @property
     def size(self) -> int:
@@ -124,6 +163,8 @@ class SecondOrderSystem:
     @cached_property
     def form(self) -> str:
         """Which modal form evaluates the transfer function exactly (see module docstring)."""
+        if not self._proportional_to_stiffness and self._reference_split is not None:
+            return "low_rank"
         if self._diagonal:
             return "diagonal"
         if self._low_rank is not None:
@@ -138,22 +179,53 @@ class SecondOrderSystem:
         return _is_diagonal(self._modal_damping) and (self.relaxation is None or _is_diagonal(self._modal_memory))
 
     @cached_property
+    def _proportional_to_stiffness(self) -> bool:
+        """D and K_h are multiples of K, so the modes of (K, M) diagonalise them whatever M is (q2
+        with a sensor mass): there one eigen-solve and one modal sum cost less than the ``low_rank``
+        form's four sums and Woodbury algebra, so the ``diagonal`` form is kept."""
+        return all(a is None or not np.any(a) or _multiple(a, self.K) for a in (self.D, self.K_h))
+
+    @cached_property
     def _low_rank(self) -> LowRankSplit | None:
-        """V = Phi^T W, S_D and S_H with Phi^T D Phi - V S_D V^T = diag(d), Phi^T K_h Phi - V S_H V^T
-        = diag(h) (S_H, h zero without memory); None when :attr:`departures` are not given, exceed
-        rank :data:`LOW_RANK_MAX` (rank 1 without memory: there the complex modes cost less than
-        the rank-2 algebra, 5 against 9-12 ms on the aluminium strip's tip body), or do not make
-        both diagonal."""
-        w = self.departures
-        if w is None or not 0 < w.shape[1] <= (LOW_RANK_MAX if self.relaxation is not None else 1):
+        """The split in the undamped modes of (K, M) (S_M = S_K = 0), or None (see :meth:`_split`)."""
+        if not self._admits_low_rank:
             return None
-        v = self.undamped[1].T @ w
-        damping = _diagonal_plus_low_rank(self._modal_damping, v)
+        return self._split(*self.undamped, None, None, self._modal_damping,
+                           None if self.relaxation is None else self._modal_memory)
+
+    @cached_property
+    def _reference_split(self) -> LowRankSplit | None:
+        """The split in the :attr:`reference` modes: S_M = W^T (M - M_r) W and S_K = W^T (K - K_r) W,
+        or None when there is no reference or M and K depart from it outside the span of W."""
+        ref, w = self.reference, self.departures
+        if ref is None or not self._admits_low_rank:
+            return None
+        s_m, s_k = (_departure(a, a_r, w) for a, a_r in ((self.M, ref.mass), (self.K, ref.stiffness)))
+        if s_m is None or s_k is None:
+            return None
+        s_m, s_k = (s if np.any(s) else None for s in (s_m, s_k))     # None: the term is skipped
+        return self._split(ref.lam, ref.phi, s_m, s_k, ref.phi.T @ self.D @ ref.phi,
+                           None if self.relaxation is None else ref.phi.T @ self.K_h @ ref.phi)
+
+    @cached_property
+    def _admits_low_rank(self) -> bool:
+        """Departures are given within the rank the form takes: :data:`LOW_RANK_MAX`, or rank 1
+        without memory (there the complex modes cost less than the rank-2 algebra, 5 against
+        9-12 ms on the aluminium strip's tip body)."""
+        w = self.departures
+        return w is not None and 0 < w.shape[1] <= (LOW_RANK_MAX if self.relaxation is not None else 1)
+
+    def _split(self, lam, phi, s_m, s_k, modal_damping, modal_memory) -> LowRankSplit | None:
+        """V = Phi^T W, S_D and S_H with Phi^T D Phi - V S_D V^T = diag(d), Phi^T K_h Phi - V S_H V^T
+        = diag(h) (S_H, h zero without memory; ``modal_damping``, ``modal_memory`` = Phi^T D Phi,
+        Phi^T K_h Phi); None when they are not both diagonal plus rank r along V."""
+        v = phi.T @ self.departures
+        damping = _diagonal_plus_low_rank(modal_damping, v)
         if damping is None:
             return None
-        memory = ((np.zeros((w.shape[1],) * 2), np.zeros(self.size)) if self.relaxation is None
-                  else _diagonal_plus_low_rank(self._modal_memory, v))
-        return None if memory is None else LowRankSplit(v, *damping, *memory)
+        memory = ((np.zeros_like(damping[0]), np.zeros(self.size)) if modal_memory is None
+                  else _diagonal_plus_low_rank(modal_memory, v))
+        return None if memory is None else LowRankSplit(lam, phi, v, s_m, s_k, *damping, *memory)
 
     @cached_property
     def _band(self) -> BandOrder | None:
@@ -313,24 +385,26 @@ class SecondOrderSystem:
         return out
 
     def _transfer_low_rank(self, s: np.ndarray, C: np.ndarray, B: np.ndarray) -> np.ndarray:
-        r"""The diagonal form plus a rank-r Woodbury correction, in the undamped modal coordinates.
+        r"""The diagonal form plus a rank-r Woodbury correction, in modal coordinates.
 
-        With :math:`\Phi^T D \Phi = \mathrm{diag}(d) + V S_D V^T` and :math:`\Phi^T K_h \Phi =
-        \mathrm{diag}(h) + V S_H V^T` (:attr:`_low_rank`),
+        In modes Phi with :math:`\Phi^T M \Phi = I + V S_M V^T`, :math:`\Phi^T K \Phi =
+        \mathrm{diag}(\lambda) + V S_K V^T`, :math:`\Phi^T D \Phi = \mathrm{diag}(d) + V S_D V^T`
+        and :math:`\Phi^T K_h \Phi = \mathrm{diag}(h) + V S_H V^T` (:attr:`_reference_split` in a
+        cached reference's modes, else :attr:`_low_rank` in those of (K, M), where S_M = S_K = 0),
 
         .. math:: Z(s) = Z_0(s) + V T(s) V^T, \quad Z_0 = \mathrm{diag}\big(s^2 + s\,d_m
-                  + \omega_m^2 - \hat G(s)\, h_m\big), \quad T = s\,S_D - \hat G(s)\, S_H,
+                  + \lambda_m - \hat G(s)\, h_m\big), \quad T = s^2 S_M + s\,S_D + S_K - \hat G(s)\, S_H,
 
         .. math:: C Z^{-1} B = C Z_0^{-1} B - (C Z_0^{-1} V)\, T\, (I + V^T Z_0^{-1} V\, T)^{-1}
                   (V^T Z_0^{-1} B) .
 
-        T stands on the right of the small solve so that it is never inverted (it vanishes with
-        the damping and the memory). The four modal sums are real sections of the diagonal form
+        T stands on the right of the small solve so that it is never inverted (in the modes of
+        (K, M) it vanishes with the damping and the memory). The four modal sums are real sections of the diagonal form
         (:func:`_sum_sections`); the r x r algebra per frequency is written out (r <= 2: numpy's
         batched solve of 8000 tiny systems costs milliseconds).
         """
-        lam, phi = self.undamped
-        v, s_d, d, s_h, h = self._low_rank
+        split = self._low_rank if self._reference_split is None else self._reference_split
+        lam, phi, v, d, h = split.lam, split.phi, split.v, split.d, split.h
         cphi, phib = C @ phi, phi.T @ B
         g = None if self.relaxation is None else self.relaxation(s)
         den = np.stack([np.ones(self.size), d, lam] + ([] if g is None else [h]), axis=1)
@@ -340,10 +414,10 @@ class SecondOrderSystem:
                          np.cumsum([a.shape[1] * b.shape[1] for a, b in pairs])[:-1], axis=1)
         h, p, q, rr = (x.reshape(s.size, a.shape[1], b.shape[1]) for x, (a, b) in zip(parts, pairs))
         if v.shape[1] == 1:                 # scalars per frequency: h - p q t / (1 + rr t)
-            t = s * s_d[0, 0] if g is None else s * s_d[0, 0] - g * s_h[0, 0]
+            t = split.coupling(s, g)[:, 0, 0]
             t /= 1.0 + rr[:, 0, 0] * t
             return h - (p * t[:, None, None]) * q
-        t = s[:, None, None] * s_d if g is None else s[:, None, None] * s_d - g[:, None, None] * s_h
+        t = split.coupling(s, g)
         capacitance = _small_product(rr, t)
         capacitance[:, np.arange(v.shape[1]), np.arange(v.shape[1])] += 1.0
         return h - _small_product(p, _small_product(t, _small_solve(capacitance, q)))
@@ -480,8 +554,8 @@ class SecondOrderSystem:
         when an iteration has not converged in 60 steps or two modes reach one root: then
         :meth:`poles` takes the Rayleigh iteration.
         """
-        lam = self.undamped[0]
-        v, s_d, d, s_h, h = self._low_rank
+        split = self._low_rank
+        lam, v, d, h = split.lam, split.v, split.d, split.h
         r, modes = v.shape[1], np.arange(count)
         outer = (v[:, :, None] * v[:, None, :]).reshape(self.size, r * r)
 
@@ -491,8 +565,7 @@ class SecondOrderSystem:
             dg = self._relaxation_slope(s)
             z = s[:, None] ** 2 + s[:, None] * d + lam - g[:, None] * h
             dz = 2 * s[:, None] + d - dg[:, None] * h
-            t = s[:, None, None] * s_d - g[:, None, None] * s_h
-            dt = s_d - dg[:, None, None] * s_h
+            t, dt = split.coupling_and_slope(s, g, dg)
             inv = 1.0 / z
             inv[modes, modes] = 0.0                                       # R without mode m
             rr, drr = ((w @ outer).reshape(count, r, r) for w in (inv, -inv * inv * dz))
@@ -611,12 +684,30 @@ def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, n
     if not np.any(off):                 # already diagonal (no damping, say): S = 0
         return np.zeros((r, r)), a.diagonal().copy()
     g = v.T @ v
-    u = (v[:, :, None] * v[:, None, :]).reshape(n, r * r)
-    kron = (g[:, None, :, None] * g[None, :, None, :]).reshape(r * r, r * r)     # G (x) G
-    s = np.linalg.solve(kron - u.T @ u, (v.T @ off @ v).ravel()).reshape(r, r)
-    s = 0.5 * (s + s.T)
+    if r == 1:                          # the scalar normal equation (numpy's solve costs 20 us)
+        s = (v.T @ off @ v) / (g * g - np.sum(v**4))
+    else:
+        u = (v[:, :, None] * v[:, None, :]).reshape(n, r * r)
+        kron = (g[:, None, :, None] * g[None, :, None, :]).reshape(r * r, r * r)     # G (x) G
+        s = np.linalg.solve(kron - u.T @ u, (v.T @ off @ v).ravel()).reshape(r, r)
+        s = 0.5 * (s + s.T)
     rest = a - v @ s @ v.T
     return (s, rest.diagonal().copy()) if _is_diagonal(rest) else None
+
+
+def _multiple(a: np.ndarray, b: np.ndarray) -> bool:
+    """Is a = c b for a scalar c (to 1e-12 of max |a|)?"""
+    k = np.unravel_index(np.argmax(np.abs(b)), b.shape)
+    return bool(np.max(np.abs(a - (a[k] / b[k]) * b)) <= 1e-12 * np.max(np.abs(a)))
+
+
+def _departure(a: np.ndarray, a_r: np.ndarray, w: np.ndarray) -> np.ndarray | None:
+    """S = W^T (a - a_r) W when a - a_r = W S W^T (W orthonormal) to 1e-10 of max |a|, else None."""
+    if a is a_r:                        # the caller's own matrix (no added mass, say)
+        return np.zeros((w.shape[1],) * 2)
+    diff = a - a_r
+    s = w.T @ diff @ w
+    return s if np.max(np.abs(diff - w @ s @ w.T)) <= 1e-10 * np.max(np.abs(a)) else None
 
 
 def _off_diagonal(a: np.ndarray) -> np.ndarray:

@@ -158,6 +158,77 @@ def test_low_rank_form_agrees_with_the_general_forms(recording, spec, extra, oth
         assert np.max(np.abs(form.transfer(peaks, model.rows, model.load[:, None]) - exact)) < 2e-10 * np.max(np.abs(exact))
 
 
+REFERENCED = [
+    ("q1+root_compliance", {"gamma": 0.3, "cdI": 7e-5, "k_theta": 3000.0}),
+    ("q1+sensor_mass", {"gamma": 0.3, "cdI": 7e-5, "m_s": 0.013}),
+    ("q2+root_compliance", {**MEMORY, "k_theta": 3000.0}),
+    ("q2+root_compliance+sensor_mass", {**MEMORY, "k_theta": 3000.0, "m_s": 0.013}),
+]
+
+
+@pytest.mark.parametrize("spec, extra", REFERENCED)
+def test_low_rank_form_from_a_cached_reference_solves_no_eigenproblem(spec, extra, monkeypatch):
+    """The model passes a reference beam with cached modes (the effects' parameters on an octave
+    grid, :meth:`Effect.reference`), so a call solves no eigenproblem: with the eigen-solver made
+    to fail after the first call, a second call in the same octave still simulates. Its transfer
+    function equals the one in the modes of (K, M) on the likelihood's grid to 1e-10 of max |H|
+    (two exact forms by different algebra; measured 8e-13 to 1.1e-12)."""
+    model = BeamModel(load_recording("data/examples/paper_rootcomp_hammer"), spec, n_intervals=12)
+    params = {"EI": EI, **{k: v for k, v in extra.items() if k != "r"}}
+    model.simulate(params)                                  # caches the reference's modes
+
+    def no_eigensolve(*args):
+        raise AssertionError("an eigenproblem was solved")
+
+    monkeypatch.setattr("bayesbeam.model.undamped_modes", no_eigensolve)
+    monkeypatch.setattr("bayesbeam.response.system.undamped_modes", no_eigensolve)
+    nearby = {k: v * 1.1 if k in ("k_theta", "m_s", "EI") else v for k, v in params.items()}
+    system = model.system(nearby)
+    assert system.form == "low_rank" and system.reference is not None
+    y = model.simulate(nearby)
+    assert np.all(np.isfinite(y))
+    monkeypatch.undo()
+    s = model.grid.s[: model.grid.s.size // 2]
+    C, B = model.rows, model.load[:, None]
+    h = system.transfer(s, C, B)
+    in_own_modes = dataclasses.replace(system, reference=None).transfer(s, C, B)
+    assert np.max(np.abs(h - in_own_modes)) / np.max(np.abs(in_own_modes)) < 1e-10
+
+
+@pytest.mark.parametrize("k_theta", [30.0, 3000.0, 3e6, 1e7])
+def test_low_rank_form_from_a_reference_is_exact_at_the_resonances(k_theta):
+    """At the four lowest peaks against a 30-digit solve, from a compliant root (k_theta = 0.7 EI/l,
+    nearly pinned) to stiff ones (7e4 and 2.3e5 EI/l, the latter off its reference by a factor
+    1.16): < 2e-9 of max |H|.
+
+    In the reference's modes a true resonance arises from the Woodbury capacitance 1 + r t
+    vanishing, not from a modal denominator, so the rounding of the correction (relative to the
+    largest stiffness: the spring's at a stiff root) is amplified by the peak's 1/(2 zeta):
+    eps k_theta / (EI omega_1^2) / (2 zeta) ~ 1e-9 at 1e7 (zeta = 8e-4). Measured 3e-12, 3e-11 and
+    1e-9 at 3e3, 3e6 and 1e7, and 5e-10 at 30, where the form in the modes of (K, M) errs as much
+    (zeta = 6e-5 at mode 1); that form errs by 8e-12, 1e-10 and 3e-11 at the others. Either is
+    far below any likelihood's noise (1e-3 of the signal and more).
+    """
+    model = BeamModel(load_recording("data/examples/paper_rootcomp_hammer"), "q2+root_compliance", n_intervals=8)
+    system = model.system({"EI": EI, "alpha": MEMORY["alpha"], "beta": MEMORY["beta"], "k_theta": k_theta})
+    assert system.reference is not None and system._reference_split is not None
+    s = 1j * system.poles().imag[:4]
+    C, B = np.eye(system.size)[:2], np.eye(system.size)[:, -2:]
+    exact = _exact(system, s, C, B)
+    assert np.max(np.abs(system.transfer(s, C, B) - exact)) / np.max(np.abs(exact)) < 2e-9
+
+
+def test_a_reference_that_departs_outside_the_directions_is_not_used():
+    """The system verifies the reference it is given: a mass that departs from the reference's
+    outside span W is refused (no reference split), and the form falls back to the modes of (K, M)."""
+    model = BeamModel(load_recording("data/examples/paper_rootcomp_hammer"), "q2+root_compliance", n_intervals=8)
+    system = model.system({"EI": EI, "alpha": MEMORY["alpha"], "beta": MEMORY["beta"], "k_theta": 3000.0})
+    ref = system.reference
+    wrong = dataclasses.replace(system, reference=ref._replace(mass=ref.mass * (1 + 1e-6)))
+    assert system._reference_split is not None and wrong._reference_split is None
+    assert wrong.form == "low_rank" and wrong._low_rank is not None
+
+
 def test_without_memory_a_rank_two_departure_keeps_the_complex_form():
     """A tip body (m_T and J: two directions) on q1: complex modes cost less than the rank-2 algebra."""
     model = BeamModel(load_recording("data/examples/alu_q1_release"), "q1", n_intervals=8)

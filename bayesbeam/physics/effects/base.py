@@ -47,6 +47,24 @@ class Effect(Component):
         """Added stiffness matrix (N/m in generalised coordinates), or None."""
         return None
 
+    def reference(self, values) -> dict[str, float]:
+        """The effect's parameter values at the reference beam near ``values`` whose undamped
+        modes the ``low_rank`` transfer form caches (it then corrects them by a rank-r term
+        instead of solving an eigenproblem per call); ``mass(ops, reference)`` must give the
+        reference's added mass and ``stiffness(ops, reference)`` its added stiffness *per unit
+        EI*, so that one set of modes serves every EI.
+
+        The values lie on a grid fixed in advance (see :func:`octave`), so the answer depends on
+        the parameters alone, and the correction stays small: it is computed by cancellation, whose
+        rounding a resonance amplifies. Default: where the effect vanishes (``absent``).
+        """
+        return dict(self.absent)
+
     def delay(self, values) -> float:
         """Delay of every response channel behind the motion (s); the force channel is not delayed."""
         return 0.0
+
+
+def octave(x: float) -> float:
+    """The power of two nearest to x on a log scale (within a factor sqrt(2)), 0 for x <= 0."""
+    return 0.0 if x <= 0 else float(2.0 ** np.round(np.log2(x)))

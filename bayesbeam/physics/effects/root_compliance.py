@@ -9,7 +9,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from bayesbeam.physics.effects.base import Effect
+from bayesbeam.physics.effects.base import Effect, octave
 
 
 class RootCompliance(Effect):
@@ -28,3 +28,7 @@ class RootCompliance(Effect):
     def stiffness(self, ops, values, setup):
         e = ops.root_slope
         return values["k_theta"] * np.outer(e, e)
+
+    def reference(self, values):
+        # per unit EI, so k_theta / EI on the grid: the clamp itself (k_theta -> inf) has no matrix
+        return {"k_theta": octave(values["k_theta"] / values["EI"])}

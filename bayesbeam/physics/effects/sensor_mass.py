@@ -5,7 +5,7 @@ with :math:`r = B(x_s)`. m_s in kg.
 """
 from typing import ClassVar
 
-from bayesbeam.physics.effects.base import Effect
+from bayesbeam.physics.effects.base import Effect, octave
 
 
 class SensorMass(Effect):
@@ -17,3 +17,6 @@ class SensorMass(Effect):
 
     def mass(self, ops, values, setup):
         return values["m_s"] * ops.point_matrix(setup.sensor_locations[0])
+
+    def reference(self, values):
+        return {"m_s": octave(values["m_s"])}
