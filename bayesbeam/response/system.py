@@ -163,7 +163,7 @@ class SecondOrderSystem:
     @cached_property
     def form(self) -> str:
         """Which modal form evaluates the transfer function exactly (see module docstring)."""
-        if not self._proportional_to_stiffness and self._reference_split is not None:
+        if self._in_reference_modes:
             return "low_rank"
         if self._diagonal:
             return "diagonal"
@@ -206,6 +206,18 @@ class SecondOrderSystem:
         s_m, s_k = (s if np.any(s) else None for s in (s_m, s_k))     # None: the term is skipped
         return self._split(ref.lam, ref.phi, s_m, s_k, ref.phi.T @ self.D @ ref.phi,
                            None if self.relaxation is None else ref.phi.T @ self.K_h @ ref.phi)
+
+    @cached_property
+    def _in_reference_modes(self) -> bool:
+        """Does the ``low_rank`` form work in the :attr:`reference`'s modes (no eigen-solve)? Not
+        where the ``diagonal`` form is possible whatever M is (see :attr:`_proportional_to_stiffness`)."""
+        return not self._proportional_to_stiffness and self._reference_split is not None
+
+    @property
+    def _modal_split(self) -> LowRankSplit | None:
+        """The split the ``low_rank`` form and its poles use: in the reference's modes or in those of
+        (K, M)."""
+        return self._reference_split if self._in_reference_modes else self._low_rank
 
     @cached_property
     def _admits_low_rank(self) -> bool:
@@ -403,7 +415,7 @@ class SecondOrderSystem:
         (:func:`_sum_sections`); the r x r algebra per frequency is written out (r <= 2: numpy's
         batched solve of 8000 tiny systems costs milliseconds).
         """
-        split = self._low_rank if self._reference_split is None else self._reference_split
+        split = self._modal_split
         lam, phi, v, d, h = split.lam, split.phi, split.v, split.d, split.h
         cphi, phib = C @ phi, phi.T @ B
         g = None if self.relaxation is None else self.relaxation(s)
@@ -460,13 +472,14 @@ class SecondOrderSystem:
 
         With a memory term the poles are roots of det Z(s) = 0 near each undamped mode: by
         Newton's method on each modal denominator (diagonal form), on the secular function of the
-        ``low_rank`` form (:meth:`_poles_secular`) or on the Rayleigh functional (the other forms,
+        ``low_rank`` form (:meth:`_poles_secular`, in the reference's modes when there is one: no
+        eigen-solve) or on the Rayleigh functional (the other forms,
         :meth:`_poles_rayleigh`); with ``below`` only for the modes that can reach it (see
         :meth:`_tracked_modes`).
         """
         if self.relaxation is None:
             p = self.state_modes[0]
-        elif self._diagonal:
+        elif not self._in_reference_modes and self._diagonal:
             p = self._poles_diagonal()
         else:
             p = self._poles_with_memory(self._tracked_modes(below))
@@ -510,7 +523,8 @@ class SecondOrderSystem:
         softened less, can fall under it; else every mode is followed."""
         if below is None:
             return self.size
-        return int(np.count_nonzero(self.undamped[0] < (2.0 * below) ** 2))
+        lam = self.undamped[0] if self._modal_split is None else self._modal_split.lam
+        return int(np.count_nonzero(lam < (2.0 * below) ** 2))
 
     def _relaxation_slope(self, s: np.ndarray) -> np.ndarray:
         """G'(s) by a central difference (relative step 1e-7): the pole iterations' derivative, which
@@ -534,7 +548,7 @@ class SecondOrderSystem:
 
     def _poles_with_memory(self, count: int) -> np.ndarray:
         """The poles of the ``count`` lowest modes of a non-diagonal memory model."""
-        p = None if self._low_rank is None else self._poles_secular(count)
+        p = None if self._modal_split is None else self._poles_secular(count)
         return self._poles_rayleigh(count) if p is None else p
 
     def _poles_secular(self, count: int) -> np.ndarray | None:
@@ -554,7 +568,7 @@ class SecondOrderSystem:
         when an iteration has not converged in 60 steps or two modes reach one root: then
         :meth:`poles` takes the Rayleigh iteration.
         """
-        split = self._low_rank
+        split = self._modal_split
         lam, v, d, h = split.lam, split.v, split.d, split.h
         r, modes = v.shape[1], np.arange(count)
         outer = (v[:, :, None] * v[:, None, :]).reshape(self.size, r * r)
