@@ -211,7 +211,7 @@ class SecondOrderSystem:
     def _in_reference_modes(self) -> bool:
         """Does the ``low_rank`` form work in the :attr:`reference`'s modes (no eigen-solve)? Not
         where the ``diagonal`` form is possible whatever M is (see :attr:`_proportional_to_stiffness`)."""
-        return not self._proportional_to_stiffness and self._reference_split is not None
+        return self.reference is not None and not self._proportional_to_stiffness and self._reference_split is not None
 
     @property
     def _modal_split(self) -> LowRankSplit | None:
@@ -711,8 +711,8 @@ def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, n
 
 def _multiple(a: np.ndarray, b: np.ndarray) -> bool:
     """Is a = c b for a scalar c (to 1e-12 of max |a|)?"""
-    k = np.unravel_index(np.argmax(np.abs(b)), b.shape)
-    return bool(np.max(np.abs(a - (a[k] / b[k]) * b)) <= 1e-12 * np.max(np.abs(a)))
+    k = np.abs(b).argmax()
+    return bool(np.abs(a - (a.flat[k] / b.flat[k]) * b).max() <= 1e-12 * np.abs(a).max())
 
 
 def _departure(a: np.ndarray, a_r: np.ndarray, w: np.ndarray) -> np.ndarray | None:
