@@ -113,12 +113,11 @@ class LowRankSplit(NamedTuple):
         return t
 
     def coupling_and_slope(self, s: np.ndarray, g: np.ndarray, dg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """T(s) and T'(s) = 2 s S_M + S_D - G'(s) S_H at a few s: (len(s), r, r) each."""
-        s, g, dg = s[:, None, None], g[:, None, None], dg[:, None, None]
-        t, dt = s * self.s_d - g * self.s_h, self.s_d - dg * self.s_h
+        """T(s) (:meth:`coupling`) and T'(s) = 2 s S_M + S_D - G'(s) S_H: (len(s), r, r) each."""
+        dt = self.s_d - dg[:, None, None] * self.s_h
         if self.s_m is not None:
-            t, dt = t + s * s * self.s_m, dt + 2 * s * self.s_m
-        return (t, dt) if self.s_k is None else (t + self.s_k, dt)
+            dt = dt + 2 * s[:, None, None] * self.s_m
+        return self.coupling(s, g), dt
 
 
 @dataclass(frozen=True, eq=False)
@@ -717,8 +716,6 @@ def _multiple(a: np.ndarray, b: np.ndarray) -> bool:
 
 def _departure(a: np.ndarray, a_r: np.ndarray, w: np.ndarray) -> np.ndarray | None:
     """S = W^T (a - a_r) W when a - a_r = W S W^T (W orthonormal) to 1e-10 of max |a|, else None."""
-    if a is a_r:                        # the caller's own matrix (no added mass, say)
-        return np.zeros((w.shape[1],) * 2)
     diff = a - a_r
     s = w.T @ diff @ w
     return s if np.max(np.abs(diff - w @ s @ w.T)) <= 1e-10 * np.max(np.abs(a)) else None
