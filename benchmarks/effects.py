@@ -3,7 +3,7 @@
 
     python benchmarks/effects.py            # about 3-6 minutes on 2 cores
     python benchmarks/effects.py --quick    # about 1-2 minutes (solve_ivp on a shorter prefix)
-    python benchmarks/effects.py --linear-only   # tables 1, 1b and 1c only
+    python benchmarks/effects.py --linear-only   # tables 1, 1b, 1c and 1d only
 
 On the 4 s, 2048 Hz recording ``data/examples/paper_q3_hammer`` (q3 at its true parameters):
 
@@ -19,7 +19,10 @@ On the 4 s, 2048 Hz recording ``data/examples/paper_q3_hammer`` (q3 at its true 
    **1b.** ``system(p).poles(below)`` under the DAQ stopband for q2 with a root spring, a sensor
    mass or an axial load against q2 alone: all a free decay's likelihood needs besides mode shapes.
    **1c.** The whole free-decay log-likelihood of the real record (its study's window and band),
-   q2 and q2 with each of those effects.
+   q2 and q2 with each of those effects. **1d.** Where the time of q1 and q2 with a root spring
+   (``low_rank``) or an axial load (``complex``, ``banded``) goes: building the system, the
+   form's once-per-system work, the per-frequency work (also per degree of freedom) and the
+   output.
 2. **Nonlinear effects** (quadratic_drag, dry_friction) at N = 16: ms per ``simulate`` (target
    100 ms), the size of the effect (RMS of y - y_linear over RMS of y), the accuracy at the
    default step (RMS difference to a run with 4x more substeps, relative to the effect's RMS),
@@ -281,6 +284,63 @@ def print_free_decay() -> None:
     print()
 
 
+#: table 1d: a base model and its costliest linear effects (the ``low_rank`` and full-rank forms)
+STAGE_ROWS = (("q1", {}, ()), ("q1", {"k_theta": 3500.0}, ("root_compliance",)), ("q1", {"P": 20.0}, ("axial_load",)),
+              ("q2", {}, ()), ("q2", {"k_theta": 3500.0}, ("root_compliance",)), ("q2", {"P": 20.0}, ("axial_load",)))
+
+
+def prepare(system):
+    """Compute what ``system``'s transfer form needs once per system (its cached properties): the
+    form's choice and then the split (``low_rank``), the complex modes (``complex``), the band
+    order (``banded``) or the modal damping and memory (``diagonal``)."""
+    needs = {"low_rank": ("_modal_split",), "complex": ("_modal_state_modes",), "banded": ("_band",),
+             "diagonal": ("_modal_damping",) + (("_modal_memory",) if system.relaxation else ()),
+             "dense": ("_modal_damping", "_modal_memory")}
+    for name in needs[system.form]:
+        getattr(system, name)
+    return system
+
+
+def stage_times(model, p) -> dict:
+    """ms per call of the stages of ``simulate``: ``system`` (M, D, K and a cached reference),
+    ``prep`` (:func:`prepare` on a fresh system), ``transfer`` (the per-frequency work on the
+    whole grid, the system prepared) and ``output`` (the drive, the delay, the inverse FFT)."""
+    s, C, B = model.grid.s, model.rows, model.load[:, None]
+    values = model.values(p)
+    system = prepare(model.system(p))
+    h = system.transfer(s, C, B)[:, :, 0]
+    out = {"system": c.best_time(lambda: model.system(p), 10, 30)}
+    out["prep"] = max(c.best_time(lambda: prepare(model.system(p)), 10, 30) - out["system"], 0.0)
+    out["transfer"] = c.best_time(lambda: system.transfer(s, C, B), 5, 20)
+    out["output"] = c.best_time(lambda: model._output(h, system, values), 10, 30)
+    return {k: v * 1e3 for k, v in out.items()} | {"form": system.form, "dof": system.size, "freq": s.size}
+
+
+def print_stages(rec) -> None:
+    """Table 1d: where the extra time of the ``low_rank`` and full-rank forms goes.
+
+    The last column is the per-frequency work per degree of freedom (ns): the ``diagonal`` form
+    evaluates one real section per mode, the ``low_rank`` form the same sections for four
+    products plus the r x r algebra, the ``complex`` form one section per complex mode pair, the
+    ``banded`` form an elimination step per degree of freedom (O(b^2) complex updates, b the
+    half-bandwidth).
+    """
+    print("1d. Stages of simulate: ms per call (best of 20-30 batches); transfer/(freq dof) = the "
+          "per-frequency work in ns per frequency and degree of freedom")
+    print(f"{'model':26} {'N':>3} {'form':>9} {'dof':>4} {'system':>7} {'prep':>7} {'transfer':>9} "
+          f"{'output':>7} {'total':>7}  {'ns/(freq dof)':>13}")
+    for base_name, extra, effects in STAGE_ROWS:
+        p = {**dict(BASES)[base_name], **extra}
+        label = " + ".join((base_name,) + effects)
+        for N in SIZES:
+            t = stage_times(BeamModel(rec, base_name, N, effects=effects), p)
+            total = t["system"] + t["prep"] + t["transfer"] + t["output"]
+            per = t["transfer"] * 1e6 / (t["freq"] * t["dof"])
+            print(f"{label:26} {N:3d} {t['form']:>9} {t['dof']:4d} {t['system']:7.3f} {t['prep']:7.3f} "
+                  f"{t['transfer']:9.3f} {t['output']:7.3f} {total:7.3f}  {per:13.2f}")
+    print()
+
+
 FINE = 16          # solve_ivp's acceleration is sampled at dt/FINE before the passband W
 
 
@@ -307,7 +367,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="solve_ivp on 0.25 s instead of 0.5 s")
     parser.add_argument("--wall", action="store_true", help="wall time instead of process CPU time")
-    parser.add_argument("--linear-only", action="store_true", help="only tables 1, 1b and 1c (about 2 minutes)")
+    parser.add_argument("--linear-only", action="store_true", help="only tables 1, 1b, 1c and 1d (about 3 minutes)")
     args = parser.parse_args(argv)
     if args.wall:
         c.CLOCK["clock"] = time.perf_counter
@@ -342,6 +402,7 @@ def main(argv=None) -> int:
     print()
     print_poles(rec)
     print_free_decay()
+    print_stages(rec)
 
     if args.linear_only:
         return 0
