@@ -8,8 +8,8 @@ The Galerkin equations of every linear damping model are, in the Laplace domain,
 
 with constant symmetric mass, damping and stiffness matrices (Galerkin forms) and, for time
 hysteresis, a scalar relaxation transform :math:`\hat G(s)` times :math:`K_h = K_0`. The
-transfer matrix :math:`C Z(s)^{-1} B` is evaluated on many frequencies through one of three
-exact modal forms:
+transfer matrix :math:`C Z(s)^{-1} B` is evaluated on many frequencies through one of these
+exact forms:
 
 ``diagonal``
     the undamped modes :math:`\Phi` of :math:`(K, M)` diagonalise :math:`D` and :math:`K_h`
@@ -29,8 +29,9 @@ exact modal forms:
     any other memory term whose matrices are banded (an axial load's full-rank geometric
     stiffness beside time hysteresis; the B-spline Galerkin forms couple only neighbouring
     splines, a root slope joins after reordering): a symmetric band elimination per frequency,
-    vectorised over the frequencies (:meth:`SecondOrderSystem._transfer_banded`; five to six
-    times the diagonal form in benchmarks/effects.py).
+    vectorised over the frequencies (:meth:`SecondOrderSystem._transfer_banded`; 5-7 times the
+    diagonal form per simulation, 6-8 times its work per frequency and degree of freedom: tables
+    1 and 1d of benchmarks/effects.py).
 ``dense``
     the rest (memory beside spatial hysteresis, whose kernel couples every pair of splines):
     a batched solve in modal coordinates per frequency (50-500 times slower).
