@@ -224,18 +224,23 @@ class BeamModel:
         K = EI K0, whose modes are (EI omega_0^2, Phi_0) of (K0, M): computed once per model,
         not once per call, and the same for a model with a vanishing effect as without it.
         """
-        ops = self.ops
-        mass, stiffness, plain = ops.M, v["EI"] * ops.K0, True
-        for e in self.effects:
-            added_mass, added_stiffness = e.mass(ops, v, self.setup), e.stiffness(ops, v, self.setup)
-            if added_mass is not None and np.any(added_mass):
-                mass, plain = mass + added_mass, False
-            if added_stiffness is not None and np.any(added_stiffness):
-                stiffness, plain = stiffness + added_stiffness, False
-        if not plain:
+        mass, stiffness, added = self._with_effects([v] * len(self.effects), self.ops.M, v["EI"] * self.ops.K0)
+        if added:
             return mass, stiffness, None
         lam0, phi0 = self._unit_modes
         return mass, stiffness, (v["EI"] * lam0, phi0)
+
+    def _with_effects(self, points, mass: np.ndarray, stiffness: np.ndarray):
+        """``mass`` and ``stiffness`` plus each effect's added matrices at its values in ``points``
+        (one dict per effect), and whether any effect added a nonzero matrix."""
+        ops, added = self.ops, False
+        for e, p in zip(self.effects, points, strict=True):
+            added_mass, added_stiffness = e.mass(ops, p, self.setup), e.stiffness(ops, p, self.setup)
+            if added_mass is not None and np.any(added_mass):
+                mass, added = mass + added_mass, True
+            if added_stiffness is not None and np.any(added_stiffness):
+                stiffness, added = stiffness + added_stiffness, True
+        return mass, stiffness, added
 
     @cached_property
     def _departures(self) -> np.ndarray | None:
@@ -269,13 +274,10 @@ class BeamModel:
         key = tuple(sorted(item for p in points for item in p.items()))
         cached = self._references.pop(key, None)
         if cached is None:
-            ops = self.ops
-            m_r = ops.M + sum(m for e, p in zip(self.effects, points) if (m := e.mass(ops, p, self.setup)) is not None)
-            k_1 = ops.K0 + sum(k for e, p in zip(self.effects, points)
-                               if (k := e.stiffness(ops, p, self.setup)) is not None)
+            m_r, k_1, _ = self._with_effects(points, self.ops.M, self.ops.K0)
             cached = (m_r, k_1, *undamped_modes(k_1, m_r))
             if len(self._references) >= REFERENCES_KEPT:
-                self._references.pop(next(iter(self._references), None), None)   # the least recently used
+                del self._references[next(iter(self._references))]     # the least recently used
         self._references[key] = cached
         m_r, k_1, lam_1, phi_1 = cached
         return ReferencePair(m_r, v["EI"] * k_1, v["EI"] * lam_1, phi_1)

@@ -284,9 +284,9 @@ def print_free_decay() -> None:
     print()
 
 
-#: table 1d: a base model and its costliest linear effects (the ``low_rank`` and full-rank forms)
-STAGE_ROWS = (("q1", {}, ()), ("q1", {"k_theta": 3500.0}, ("root_compliance",)), ("q1", {"P": 20.0}, ("axial_load",)),
-              ("q2", {}, ()), ("q2", {"k_theta": 3500.0}, ("root_compliance",)), ("q2", {"P": 20.0}, ("axial_load",)))
+#: table 1d: q1 and q2 alone and with their costliest linear effects (the ``low_rank`` and
+#: full-rank forms), at table 1's values
+STAGE_ROWS = tuple((base, effects) for base in ("q1", "q2") for effects in ((), ("root_compliance",), ("axial_load",)))
 
 
 def prepare(system):
@@ -329,8 +329,10 @@ def print_stages(rec) -> None:
           "per-frequency work in ns per frequency and degree of freedom")
     print(f"{'model':26} {'N':>3} {'form':>9} {'dof':>4} {'system':>7} {'prep':>7} {'transfer':>9} "
           f"{'output':>7} {'total':>7}  {'ns/(freq dof)':>13}")
-    for base_name, extra, effects in STAGE_ROWS:
-        p = {**dict(BASES)[base_name], **extra}
+    for base_name, effects in STAGE_ROWS:
+        p = dict(BASES)[base_name]
+        for name in effects:
+            p = {**p, **dict(LINEAR)[name]}
         label = " + ".join((base_name,) + effects)
         for N in SIZES:
             t = stage_times(BeamModel(rec, base_name, N, effects=effects), p)

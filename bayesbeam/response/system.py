@@ -523,7 +523,8 @@ class SecondOrderSystem:
         softened less, can fall under it; else every mode is followed."""
         if below is None:
             return self.size
-        lam = self.undamped[0] if self._modal_split is None else self._modal_split.lam
+        split = self._modal_split
+        lam = self.undamped[0] if split is None else split.lam
         return int(np.count_nonzero(lam < (2.0 * below) ** 2))
 
     def _relaxation_slope(self, s: np.ndarray) -> np.ndarray:
