@@ -4,9 +4,9 @@ A simulated impact test of the paper's beam (N = 16, rho A = 1.02087, EI = 44.28
 gamma = 0.12 and Kelvin-Voigt cdI = 2e-5, force at x_f = 0.75 m, tip accelerometer):
 
 * the beam is struck by a continuous half-sine force, 2.5 samples long (a hammer);
-* its exact tip acceleration is computed independently (tests.reference: modal matrix
+* its exact tip acceleration is computed independently (tests.galerkin_reference: modal matrix
   exponentials during the pulse, closed-form free decay after) on a grid of 32 sub-steps;
-* a model DAQ (tests.reference.KaiserDAQ: zero-phase Kaiser-windowed sinc, cut-off 0.45 fs,
+* a model DAQ (tests.galerkin_reference.KaiserDAQ: zero-phase Kaiser-windowed sinc, cut-off 0.45 fs,
   flat to 1e-5 below 0.40 fs, -100 dB above 0.50 fs) filters force and acceleration alike, which
   are then sampled for 2 s. The filtered force is integrated exactly (Gauss-Legendre over the
   pulse, where the integrand is smooth); the acceleration minus its force feed-through term
@@ -27,7 +27,7 @@ from scipy import signal
 from bayesbeam.physics.mechanisms import Air, StrainRate
 from bayesbeam.response.linear import FrequencyGrid, force_response
 from bayesbeam.response.system import SecondOrderSystem
-from tests.reference import (
+from tests.galerkin_reference import (
     EI,
     KaiserDAQ,
     first_order_hold_response,

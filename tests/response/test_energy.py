@@ -12,7 +12,7 @@ import pytest
 from bayesbeam.physics.mechanisms import Air, SpatialHysteresis, StrainRate
 from bayesbeam.response.linear import FrequencyGrid, force_response
 from bayesbeam.response.system import SecondOrderSystem
-from tests.reference import EI, gaussian, paper_operators
+from tests.galerkin_reference import EI, gaussian, paper_operators
 
 FS, N_SAMPLES, X_FORCE = 2048.0, 4096, 0.75
 DT = 1 / FS

@@ -22,8 +22,8 @@ from bayesbeam.io.recording import Beam, TipBody
 from bayesbeam.response import nonlinear as nl
 from bayesbeam.response.linear import respond
 from bayesbeam.response.system import SecondOrderSystem
+from tests.galerkin_reference import state_matrix
 from tests.physics.effects.helpers import PAPER_EI, half_sine, recording
-from tests.reference import state_matrix
 
 #: aluminium strip 0.5 m x 25 mm x 3 mm with a 50 g tip block (data/examples/alu_q1_release)
 ALU = Beam(0.5, 2700.0, 7.5e-5, 5.625e-11, 7.0e10)

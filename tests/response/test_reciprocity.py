@@ -16,7 +16,7 @@ from bayesbeam.physics.mechanisms import (
 )
 from bayesbeam.response.linear import FrequencyGrid, force_response
 from bayesbeam.response.system import SecondOrderSystem
-from tests.reference import EI, paper_operators
+from tests.galerkin_reference import EI, paper_operators
 
 X1, X2 = 0.3, 0.85
 FS, N_SAMPLES = 2048.0, 2048

@@ -13,7 +13,7 @@ from scipy import linalg, special
 from bayesbeam.physics.mechanisms import Air, StrainRate, TimeHysteresis
 from bayesbeam.response.linear import FrequencyGrid, release_response
 from bayesbeam.response.system import SecondOrderSystem
-from tests.reference import EI, LENGTH, paper_operators
+from tests.galerkin_reference import EI, LENGTH, paper_operators
 
 P = 0.5            # N
 ALPHA, BETA = 10.0, 5.0

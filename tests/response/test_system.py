@@ -25,7 +25,7 @@ from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics.basis import SplineBasis
 from bayesbeam.physics.mechanisms import Air, TimeHysteresis
 from bayesbeam.response.system import SecondOrderSystem
-from tests.reference import EI, LENGTH, RHO_A, state_matrix
+from tests.galerkin_reference import EI, LENGTH, RHO_A, state_matrix
 
 MEMORY = {"alpha": 0.5, "beta": 20.0, "r": np.inf}    # |G| up to 2 % of EI at mode 1: visible
 

@@ -17,7 +17,7 @@ from bayesbeam.physics.mechanisms.time_hysteresis import (
 )
 from bayesbeam.response.linear import FrequencyGrid, force_response
 from bayesbeam.response.system import SecondOrderSystem
-from tests.reference import EI, gaussian, memory_newmark, modal, paper_operators
+from tests.galerkin_reference import EI, gaussian, memory_newmark, modal, paper_operators
 
 ALPHA, BETA = 10.0, 5.0  # N m^2 s^-1/2, 1/s: G(0) = 7.9 N m^2 < EI; mode-1 damping ratio ~3%
 
@@ -81,7 +81,7 @@ def _q2_system(ops, r, alpha=ALPHA):
 
 @pytest.mark.parametrize("r", [np.inf, 0.1])
 def test_matches_direct_convolution_quadrature(r):
-    """force_response vs the product-integration + Newmark reference of tests.reference.
+    """force_response vs the product-integration + Newmark reference of tests.galerkin_reference.
 
     Setup: paper beam, N = 6, q2 (alpha = 10, beta = 5, memory r), force at 0.75 m, a Gaussian
     pulse of std 4 samples at fs = 256 Hz (spectrum exp(-50) at 0.4 fs: its samples' band-limited
