@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 from pathlib import Path
 
 import numpy as np
 
 from bayesbeam.io.atomic import atomic_write, write_text
+from bayesbeam.io.provenance import write_json
 from bayesbeam.modal.ema import (
     EmaResult,
     ModalTable,
@@ -131,7 +131,7 @@ def write_ema_outputs(out_dir, result: EmaResult, table: ModalTable, document: d
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     return [
-        write_text(out / "ema.json", json.dumps(document, indent=2) + "\n"),
+        write_json(document, out / "ema.json"),
         write_text(out / "table4.csv", _table4_csv(result)),
         _save_figure(plot_successive(result, table, second_moment=second_moment, rho_a=rho_a), out / "ema.png"),
     ]
@@ -186,6 +186,6 @@ def write_era_outputs(out_dir, modes, rec) -> list[Path]:
     ax.set_title(f"{Path(str(rec.source)).name}: ERA stabilization (lines: modes kept at order {modes.order})", fontsize=9)
     return [
         atomic_write(out / "modal.csv", lambda p: write_modal_table(p, modes.table())),
-        write_text(out / "era.json", json.dumps(era_document(modes, rec), indent=2) + "\n"),
+        write_json(era_document(modes, rec), out / "era.json"),
         _save_figure(fig, out / "stabilization.png"),
     ]

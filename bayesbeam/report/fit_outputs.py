@@ -6,22 +6,14 @@ file and is written by the sampler itself, so that an interrupted run can resume
 """
 from __future__ import annotations
 
-import json
 import warnings
 from pathlib import Path
 
-from bayesbeam.io.atomic import atomic_write, write_text
+from bayesbeam.io.atomic import atomic_write
+from bayesbeam.io.provenance import write_json
 from bayesbeam.report.plots import corner_plot, fit_plot, save, trace_plot
 
-
-def write_json(data, path) -> Path:
-    return write_text(path, json.dumps(data, indent=2, default=_jsonable) + "\n")
-
-
-def _jsonable(value):
-    if hasattr(value, "item"):
-        return value.item()
-    raise TypeError(f"cannot write {type(value).__name__} to JSON")
+__all__ = ["write_fit", "write_json", "write_netcdf"]
 
 
 def write_netcdf(idata, path) -> Path:
