@@ -21,6 +21,7 @@ from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, SPECTRUM_BANDS
 from bayesbeam.compare import strength
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
+from bayesbeam.report.markdown import markdown_table
 
 # plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
 from bayesbeam.report.plots import (
@@ -398,6 +399,34 @@ def _discretisation_table(summary) -> str:
                      str(d["refined_n_intervals"]), f"{d['max_shift_sd']:.3g} ({esc(name)})",
                      str(d["tolerance_sd"]), flag("passed" if d["passed"] else "failed", not d["passed"])])
     return table(["model", "N", "finer N", "largest shift [sd]", "tolerance [sd]", "check"], rows)
+
+
+# ---------------------------------------------------------------------------- markdown
+def ranking_markdown(summary) -> str:
+    """The ranking as a markdown table (for the studies' pages), from comparison.json: evidence, the
+    spline grid N, the smallest posterior predictive p-value and every parameter's posterior median
+    with its 90% interval."""
+    models = summary["models"]
+    rows = []
+    for m in summary["ranking"]:
+        s = models[m]
+        p_values = [v["p_value"] for v in s["ppc"].values() if v["p_value"] is not None]
+        rows.append([_title(m, s), f"{s['log_evidence']:.1f}", f"{s['log_evidence_sd']:.2f}",
+                     "best" if m == summary["best"] else f"{s['log_bayes_factor_vs_best']:.1f}",
+                     str(s["discretisation_check"]["n_intervals"]),
+                     f"{min(p_values):.2g}" if p_values else "n/a",
+                     "; ".join(f"{name} {_median_and_interval(q)}" for name, q in s["posterior"].items())])
+    head = ["model", "log Z", "sd", "ln B vs best", "N", "smallest predictive p",
+            "posterior median [90% interval], SI units"]
+    return markdown_table(head, rows)
+
+
+def _median_and_interval(q) -> str:
+    """'median [q05, q95]' with the significant digits that resolve the interval (3 at least)."""
+    width = q["q95"] - q["q05"]
+    ratio = abs(q["q50"]) / width if width > 0 and q["q50"] else 1.0
+    digits = min(8, 3 + max(0, int(np.floor(np.log10(ratio)))))
+    return f"{q['q50']:.{digits}g} [{q['q05']:.{digits}g}, {q['q95']:.{digits}g}]"
 
 
 # ---------------------------------------------------------------------------- helpers

@@ -1,7 +1,7 @@
 """Run ``bayesbeam diagnose`` blind on every recording of the study and tabulate the results.
 
     OPENBLAS_NUM_THREADS=1 python studies/concealed_effects/run.py            # resume: skips done ones
-    OPENBLAS_NUM_THREADS=1 python studies/concealed_effects/run.py --tables   # only rebuild results.md
+    OPENBLAS_NUM_THREADS=1 python studies/concealed_effects/run.py --tables   # only rebuild results.md's tables
 
 Each recording (``recordings/<beam>_<effect>/``, made by ``generate.py``) is diagnosed by exactly
 the command a user would type, told only the damping model that generated it, never the effect:
@@ -9,8 +9,9 @@ the command a user would type, told only the damping model that generated it, ne
     bayesbeam diagnose recordings/<name> --model <q1|q3> --max-frequency 150 --executor serial
                        --out out/<name>
 
-Recordings run two at a time (one per core). ``results.md`` is written from the diagnosis.json
-files and each recording's truth.json, so every number in the README can be rebuilt.
+Recordings run two at a time (one per core). The tables of ``results.md`` (its marker blocks,
+:mod:`bayesbeam.report.markdown`) are written from the diagnosis.json files and each recording's
+truth.json, so every number in them can be rebuilt.
 """
 from __future__ import annotations
 
@@ -105,29 +106,28 @@ def null_table(nulls: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def write_tables() -> Path:
-    from bayesbeam.io.atomic import write_text
+RESULTS = HERE / "results.md"
 
+
+def blocks() -> dict[Path, dict[str, str]]:
+    """The generated blocks of results.md, from out/*/diagnosis.json and recordings/*/truth.json."""
     all_rows = rows()
     found = [r for r in all_rows if r["effect"]]
     nulls = [r for r in all_rows if not r["effect"]]
     named = sum(r["added"] == [r["effect"]] for r in found)
     covered = sum(r["covered"] for r in found)
     alarms = sum(bool(r["added"]) for r in nulls)
-    text = (f"# Concealed effects: results\n\nWritten by `python studies/concealed_effects/run.py --tables` from "
-            f"`out/*/diagnosis.json` and `recordings/*/truth.json`.\n\n"
-            f"**Named correctly (exactly the concealed effect added): {named} of {len(found)}. "
-            f"Truth inside the 90 % interval: {covered} of {len(found)}. "
-            f"False alarms (an effect added to a null recording): {alarms} of {len(nulls)}.**\n\n"
-            f"## Recordings with a concealed effect\n\n{effect_table(found)}\n\n"
-            f"## Null recordings\n\n{null_table(nulls)}\n")
-    return write_text(HERE / "results.md", text)
+    score = (f"**Named correctly (exactly the concealed effect added): {named} of {len(found)}. "
+             f"Truth inside the 90 % interval: {covered} of {len(found)}. "
+             f"False alarms (an effect added to a null recording): {alarms} of {len(nulls)}.**")
+    return {RESULTS: {"concealed-score": score, "concealed-effects": effect_table(found),
+                      "concealed-nulls": null_table(nulls)}}
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--force", action="store_true", help="rerun recordings already diagnosed")
-    parser.add_argument("--tables", action="store_true", help="only rebuild results.md")
+    parser.add_argument("--tables", action="store_true", help="only rebuild results.md's tables (no diagnosis)")
     parser.add_argument("--processes", type=int, default=2, help="recordings diagnosed at once (default 2)")
     parser.add_argument("names", nargs="*", help="only these recordings")
     args = parser.parse_args(argv)
@@ -138,7 +138,9 @@ def main(argv=None) -> int:
         with ProcessPoolExecutor(args.processes) as pool:
             for name, seconds, status in pool.map(run_one, todo):
                 print(f"{name}: exit {status}, {seconds:.0f} s", flush=True)
-    print(f"wrote {write_tables()}")
+    from bayesbeam.report.markdown import write_files
+
+    print(f"wrote {', '.join(str(p) for p in write_files(blocks()))}")
     return 0
 
 

@@ -1,0 +1,92 @@
+"""Generated blocks in markdown files: tables and numbers written by the script that made them.
+
+A block sits between two marker comments on lines of their own::
+
+    <!-- begin: NAME -->
+    ...generated text...
+    <!-- end: NAME -->
+
+:func:`replace_block` swaps what lies between them for a new body and leaves the rest of the file
+(the prose) alone; :func:`write_blocks` does that for several blocks of one file and writes it
+atomically. The studies' and benchmarks' scripts render their blocks from their committed JSON,
+and a test re-renders every block and fails when the markdown has drifted from it.
+"""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from bayesbeam.io.atomic import write_text
+
+_MARKER = re.compile(r"^<!-- (begin|end): ([\w.-]+) -->$", re.MULTILINE)
+
+
+def begin_marker(name: str) -> str:
+    return f"<!-- begin: {name} -->"
+
+
+def end_marker(name: str) -> str:
+    return f"<!-- end: {name} -->"
+
+
+def replace_block(text: str, name: str, body: str, source: str = "the markdown") -> str:
+    """``text`` with the body of block ``name`` replaced by ``body``.
+
+    ``source`` names the file in the error raised when the block's markers are missing, repeated
+    or out of order.
+    """
+    start, stop = _span(text, name, source)
+    return text[:start] + "\n" + body.strip("\n") + "\n" + text[stop:]
+
+
+def read_block(text: str, name: str, source: str = "the markdown") -> str:
+    """The body of block ``name`` (without its markers and the newlines next to them)."""
+    start, stop = _span(text, name, source)
+    return text[start:stop].strip("\n")
+
+
+def block_names(text: str) -> list[str]:
+    """Names of the blocks in ``text``, in order (each begin marker once)."""
+    return [m.group(2) for m in _MARKER.finditer(text) if m.group(1) == "begin"]
+
+
+def write_blocks(path, blocks: dict[str, str]) -> Path:
+    """Replace the blocks ``{name: body}`` of the markdown file ``path``; written atomically, and only
+    when something changed (an unchanged file keeps its modification time)."""
+    path = Path(path)
+    old = path.read_text(encoding="utf-8")
+    new = old
+    for name, body in blocks.items():
+        new = replace_block(new, name, body, str(path))
+    return write_text(path, new) if new != old else path
+
+
+def write_files(files: dict) -> list[Path]:
+    """:func:`write_blocks` for every ``{path: {name: body}}`` of a script's generated text."""
+    return [write_blocks(path, blocks) for path, blocks in files.items()]
+
+
+def markdown_table(head: list[str], rows: list[list[str]]) -> str:
+    """A pipe table: header, separator and one line per row (cells as given)."""
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for row in rows:
+        if len(row) != len(head):
+            raise ValueError(f"table row {row!r} has {len(row)} cells, the header {len(head)}")
+        lines.append("| " + " | ".join(row) + " |")
+    return "\n".join(lines)
+
+
+def _span(text: str, name: str, source: str) -> tuple[int, int]:
+    """(end of the begin marker's line, start of the end marker's line) of block ``name``."""
+    begins = [m for m in _MARKER.finditer(text) if m.groups() == ("begin", name)]
+    ends = [m for m in _MARKER.finditer(text) if m.groups() == ("end", name)]
+    pair = f"'{begin_marker(name)}' and '{end_marker(name)}'"
+    if not begins or not ends:
+        missing = " and ".join(m for m, found in ((begin_marker(name), begins), (end_marker(name), ends)) if not found)
+        raise ValueError(f"{source}: no {missing} line: add the pair {pair}, each on a line of its own, "
+                         f"where the generated text belongs")
+    if len(begins) > 1 or len(ends) > 1:
+        raise ValueError(f"{source}: block '{name}' is marked more than once: keep one pair {pair}")
+    if ends[0].start() < begins[0].end():
+        raise ValueError(f"{source}: '{end_marker(name)}' comes before '{begin_marker(name)}': swap them")
+    return begins[0].end(), ends[0].start()
