@@ -21,7 +21,7 @@ from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, SPECTRUM_BANDS
 from bayesbeam.compare import strength
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
-from bayesbeam.report.markdown import markdown_table
+from bayesbeam.report.markdown import markdown_table, significant
 
 # plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
 from bayesbeam.report.plots import (
@@ -426,7 +426,7 @@ def _median_and_interval(q) -> str:
     width = q["q95"] - q["q05"]
     ratio = abs(q["q50"]) / width if width > 0 and q["q50"] else 1.0
     digits = min(8, 3 + max(0, int(np.floor(np.log10(ratio)))))
-    return f"{q['q50']:.{digits}g} [{q['q05']:.{digits}g}, {q['q95']:.{digits}g}]"
+    return f"{significant(q['q50'], digits)} [{significant(q['q05'], digits)}, {significant(q['q95'], digits)}]"
 
 
 # ---------------------------------------------------------------------------- helpers

@@ -16,6 +16,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import numpy as np
+
 from bayesbeam.io.atomic import write_text
 
 _MARKER = re.compile(r"^<!-- (begin|end): ([\w.-]+) -->$", re.MULTILINE)
@@ -74,6 +76,14 @@ def markdown_table(head: list[str], rows: list[list[str]]) -> str:
             raise ValueError(f"table row {row!r} has {len(row)} cells, the header {len(head)}")
         lines.append("| " + " | ".join(row) + " |")
     return "\n".join(lines)
+
+
+def significant(value: float, digits: int = 4) -> str:
+    """``value`` to ``digits`` significant digits, positional between 1e-4 and 1e6 (``1000``, not
+    ``1e+03``), in exponent form outside."""
+    if value and 1e-4 <= abs(value) < 1e6:
+        return np.format_float_positional(value, precision=digits, unique=False, fractional=False, trim="-")
+    return f"{value:.{digits}g}"
 
 
 def _span(text: str, name: str, source: str) -> tuple[int, int]:
