@@ -4,6 +4,15 @@ The force window of impact testing: outside the impact a hammer's force channel 
 and that noise, fed to the model as a force, drives a spurious response over the whole record.
 The standard remedy keeps the samples around the impact and zeroes the rest.
 
+What counts as the impact is judged against the channel's own noise, pulse by pulse
+(:func:`find_pulses`): a sample belongs to a pulse when it stands out of the noise by
+:data:`NOISE_MULTIPLE` robust standard deviations as well as by :data:`THRESHOLD` of the peak;
+samples close together form one pulse; the main impact and every later pulse with the shape of a
+hit (a double hit, a bounce of the hammer) are kept, while a spike of one or two samples away from
+every hit (a noise extreme, an electrical glitch) is not. The window (:func:`impact_window`) is
+the union of short windows around the hits, so a stray sample late in the record cannot stretch
+it over the record.
+
 The samples it keeps still carry their noise: the force is an errors-in-variables input.
 :func:`force_noise` measures that noise where the window is closed and states what is left of it
 in the kept samples, so the likelihood can marginalise the response it drives
@@ -11,37 +20,138 @@ in the kept samples, so the likelihood can marginalise the response it drives
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from bayesbeam.response.linear import daq_passband
 
-#: default force window: samples kept before the first and after the last sample above
-#: THRESHOLD x peak, and the length of the half-cosine tapers outside them. Every kept sample
-#: also keeps its noise, which drives a response of its own (the force is an errors-in-variables
-#: input), so the window is short: it holds the pulse whole (the threshold follows a soft tip)
-#: and the strongest anti-alias ringing next to it, which lies near 0.45 fs, out of the band
-#: that is fitted. On the paper_q3_hammer example (1% force noise) the in-band residual at the
-#: true parameters is 1.8x the sensor noise with (8, 16) and 4.2x with (24, 64).
+#: default force window: samples kept before the first and after the last sample of each hit,
+#: and the length of the half-cosine tapers outside them. Every kept sample also keeps its
+#: noise, which drives a response of its own (the force is an errors-in-variables input), so
+#: the window is short: it holds the pulse whole (the threshold follows a soft tip) and the
+#: strongest anti-alias ringing next to it, which lies near 0.45 fs, out of the band that is
+#: fitted. On the paper_q3_hammer example (1% force noise) the in-band residual at the true
+#: parameters is 1.8x the sensor noise with (8, 16) and 4.2x with (24, 64).
 PRE, POST, TAPER, THRESHOLD = 8, 16, 8, 0.05
+#: a pulse sample also stands this many robust noise sd (1.4826 x MAD) off the channel's
+#: median: Gaussian noise passes 5 sd in 6e-7 of its samples, about one record in a hundred at
+#: 20 000 samples, and such a lone sample is then a spike, not a hit (:func:`find_pulses`)
+NOISE_MULTIPLE = 5.0
+#: samples above the threshold less than GAP samples apart belong to one pulse: the anti-alias
+#: ringing of one pulse dips below the threshold for a sample or two (its period is about
+#: 2.2 samples), while a hammer's bounce comes milliseconds later
+GAP = 8
+#: a pulse spanning fewer samples than this, away from the main impact, is a spike: any
+#: contact force lasts at least a few samples once the DAQ's low-pass has smoothed it
+MIN_HIT_SAMPLES = 3
+#: more latent force-noise samples than this draw a warning (:func:`force_noise`). The cost of a
+#: likelihood grows about in proportion to them: on the paper_q3_hammer example at N = 16, 64 of
+#: them take 4-6x the time of the 6 a single hit leaves at a decimated rate; one window at the
+#: recorded rate holds about 45
+MAX_LATENT = 64
+
+
+@dataclass(frozen=True)
+class Pulse:
+    """One cluster of force samples above the threshold.
+
+    ``start``, ``stop``: its first and last sample above the threshold (inclusive);
+    ``peak_index``, ``peak``: its largest deviation from the channel's median (N, signed);
+    ``hit``: True for the main impact and every later pulse with the shape of a hit, False for a
+    spike of one or two samples away from every hit.
+    """
+
+    start: int
+    stop: int
+    peak_index: int
+    peak: float
+    hit: bool
+
+    @property
+    def width(self) -> int:
+        """Samples from the first to the last above the threshold."""
+        return self.stop - self.start + 1
+
+
+@dataclass(frozen=True)
+class ForcePulses:
+    """The pulses of a force channel and how they were judged.
+
+    ``threshold`` (N): the deviation from ``baseline`` (the channel's median, N) a pulse sample
+    reaches: the larger of THRESHOLD x the peak and NOISE_MULTIPLE x ``noise_sd`` (the robust sd
+    of the channel, N).
+    """
+
+    pulses: tuple[Pulse, ...]
+    threshold: float
+    noise_sd: float
+    baseline: float
+
+    @property
+    def hits(self) -> tuple[Pulse, ...]:
+        return tuple(p for p in self.pulses if p.hit)
+
+    @property
+    def spikes(self) -> tuple[Pulse, ...]:
+        return tuple(p for p in self.pulses if not p.hit)
+
+
+def robust_sd(x: np.ndarray) -> float:
+    """1.4826 x the median absolute deviation: the sd of Gaussian noise, unmoved by a few pulses."""
+    x = np.asarray(x, dtype=float)
+    return 1.4826 * float(np.median(np.abs(x - np.median(x))))
+
+
+def find_pulses(force: np.ndarray, *, threshold: float = THRESHOLD,
+                noise_multiple: float = NOISE_MULTIPLE) -> ForcePulses:
+    """The pulses of a force channel (N), each a hit or a spike (module docstring).
+
+    The noise sd is measured over the whole channel: the pulses hold a few dozen of its
+    thousands of samples, which do not move a median. Raises ValueError for a channel that is
+    constant (no impact).
+    """
+    force = np.asarray(force, dtype=float)
+    baseline = float(np.median(force))
+    deviation = force - baseline
+    main = int(np.argmax(np.abs(deviation)))
+    peak = abs(deviation[main])
+    if not peak > 0:
+        raise ValueError("the force channel is constant: no impact to window")
+    noise_sd = robust_sd(force)
+    level = max(threshold * peak, noise_multiple * noise_sd)
+    above = np.flatnonzero(np.abs(deviation) >= level)
+    breaks = np.flatnonzero(np.diff(above) >= GAP) + 1
+    pulses = tuple(_pulse(cluster, deviation, main) for cluster in np.split(above, breaks))
+    return ForcePulses(pulses, float(level), noise_sd, baseline)
+
+
+def _pulse(cluster: np.ndarray, deviation: np.ndarray, main: int) -> Pulse:
+    start, stop = int(cluster[0]), int(cluster[-1])
+    top = start + int(np.argmax(np.abs(deviation[start : stop + 1])))
+    hit = start <= main <= stop or stop - start + 1 >= MIN_HIT_SAMPLES
+    return Pulse(start, stop, top, float(deviation[top]), hit)
 
 
 def impact_window(force: np.ndarray, *, pre: int = PRE, post: int = POST, taper: int = TAPER,
                   threshold: float = THRESHOLD) -> np.ndarray:
-    """Window (same length as ``force``, values in [0, 1]) around the impact(s).
+    """Window (same length as ``force``, values in [0, 1]) around the hits of the impact.
 
-    It is 1 from ``pre`` samples before the first sample whose magnitude exceeds
-    ``threshold`` times the peak to ``post`` samples after the last such sample (so a double
-    hit is kept whole), falls to 0 over ``taper`` samples by a half cosine, and is 0 elsewhere.
+    Around each hit of :func:`find_pulses` it is 1 from ``pre`` samples before its first sample
+    above the threshold to ``post`` samples after its last, falls to 0 over ``taper`` samples
+    by a half cosine, and is 0 elsewhere; the windows of several hits are joined by their
+    maximum. Spikes are left out.
     """
     force = np.asarray(force, dtype=float)
-    n = force.size
-    peak = np.max(np.abs(force))
-    if not peak > 0:
-        raise ValueError("the force channel is zero everywhere: no impact to window")
-    above = np.flatnonzero(np.abs(force) >= threshold * peak)
-    first, last = max(above[0] - pre, 0), min(above[-1] + post, n - 1)
+    window = np.zeros(force.size)
+    for hit in find_pulses(force, threshold=threshold).hits:
+        window = np.maximum(window, _hit_window(force.size, hit, pre, post, taper))
+    return window
+
+
+def _hit_window(n: int, hit: Pulse, pre: int, post: int, taper: int) -> np.ndarray:
+    first, last = max(hit.start - pre, 0), min(hit.stop + post, n - 1)
     window = np.zeros(n)
     window[first : last + 1] = 1.0
     ramp = 0.5 * (1 + np.cos(np.pi * np.arange(1, taper + 1) / (taper + 1)))
@@ -91,7 +201,7 @@ def force_noise(recording, factor: int = 1) -> ForceNoise | None:
     quiet = force[window == 0]
     if quiet.size < 16:
         return None
-    sd = 1.4826 * float(np.median(np.abs(quiet - np.median(quiet))))
+    sd = robust_sd(quiet)
     if not sd > 0:
         return None
     factor = int(factor)
@@ -100,7 +210,22 @@ def force_noise(recording, factor: int = 1) -> ForceNoise | None:
     pad[factor // 2 : factor // 2 + force.size] = window**2     # sample k covers k D -/+ D/2
     mean_w2 = pad[: n_out * factor].reshape(n_out, factor).mean(axis=1)
     index = np.flatnonzero(mean_w2 > 0)
+    if index.size > MAX_LATENT:
+        _warn_many_latent(recording, index.size, factor)
     return ForceNoise(sd, index, sd**2 / factor * mean_w2[index])
+
+
+def _warn_many_latent(recording, n_latent: int, factor: int) -> None:
+    """Say that the force-noise marginalisation has grown, and where the hits are."""
+    hits = find_pulses(recording.force).hits
+    times = ", ".join(f"{recording.time[h.start]:.4g} s ({h.width} samples)" for h in hits)
+    warnings.warn(
+        f"{recording.source or 'recording'}: the force window keeps {n_latent} samples at "
+        f"{recording.fs / factor:.6g} Hz (more than {MAX_LATENT}); each is a latent term of the "
+        f"force-noise marginalisation, which slows every likelihood evaluation. The window holds "
+        f"{len(hits)} hit(s): {times}. Fix: check the force channel (bayesbeam check), lower "
+        f"--max-frequency (a fit then decimates), or trim the record to the hits that matter.",
+        stacklevel=2)
 
 
 def decimate(recording, factor: int, *, force_window: bool | None = None):

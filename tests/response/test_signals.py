@@ -1,10 +1,13 @@
-"""The force channel's noise left inside the impact window (``response.signals.force_noise``)."""
+"""The impact window judged against the force channel's noise, pulse by pulse
+(``response.signals.find_pulses``, ``impact_window``), and the noise left inside it
+(``response.signals.force_noise``)."""
+import warnings
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from bayesbeam.response.signals import decimate, force_noise, impact_window
+from bayesbeam.response.signals import MAX_LATENT, decimate, find_pulses, force_noise, impact_window
 from tests.inference import cases
 
 FS, DURATION = 2048.0, 4.0
@@ -17,17 +20,25 @@ def noisy_force_recording(seed=0, sigma=SIGMA_F):
     return replace(rec, force=rec.force + sigma * rng.standard_normal(rec.n_samples))
 
 
+def full_rate_noise(rec, factor=1):
+    """force_noise at the recorded rate, where a 4 ms pulse's window exceeds MAX_LATENT samples
+    and warns by design (test_many_latent_samples_warn)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return force_noise(rec, factor)
+
+
 def test_noise_sd_is_measured_outside_the_window():
     """8000 quiet samples: the MAD estimate of sigma has a relative sd of about 1.7 / sqrt(2 n)
     = 1.3 %; 5 % is four of those."""
-    noise = force_noise(noisy_force_recording())
+    noise = full_rate_noise(noisy_force_recording())
     assert noise.sd == pytest.approx(SIGMA_F, rel=0.05)
 
 
 def test_full_rate_variances_are_the_window_squared():
     """At the recorded rate the kept noise is w_j e_j exactly: variance sigma^2 w_j^2, only where w > 0."""
     rec = noisy_force_recording()
-    noise = force_noise(rec)
+    noise = full_rate_noise(rec)
     window = impact_window(rec.force)
     np.testing.assert_array_equal(noise.index, np.flatnonzero(window > 0))
     np.testing.assert_allclose(noise.variance, noise.sd**2 * window[noise.index] ** 2, rtol=1e-12)
@@ -46,7 +57,7 @@ def test_decimated_variances_match_the_in_band_noise(factor):
     """
     rec = noisy_force_recording()
     window = impact_window(rec.force)
-    noise = force_noise(rec, factor)
+    noise = full_rate_noise(rec, factor)
     assert np.sum(noise.variance) == pytest.approx(noise.sd**2 * np.sum(window**2) / factor**2, rel=1e-12)
     rng = np.random.default_rng(1)
     draws = noise.sd * rng.standard_normal((400, rec.n_samples))
@@ -63,3 +74,97 @@ def test_no_noise_to_model():
     assert force_noise(clean) is None
     release = replace(clean, excitation=replace(clean.excitation, kind="release", tip_load=1.0, location=None, column=None), force=None)
     assert force_noise(release) is None
+
+
+# ---------------------------------------------------------------- pulses judged against the noise
+# A hammer test as a DAQ at 5120 Hz records it for 4 s: a 10 N hard-tip pulse (Gaussian, sd
+# 0.5 ms) at 0.1 s and force noise of 0.094 N sd (about 1 % of the peak).
+HAMMER_FS, HAMMER_N, HAMMER_T0, HAMMER_SD, HAMMER_PEAK, HAMMER_NOISE = 5120.0, 20480, 0.1, 5e-4, 10.0, 0.094
+#: the window's support for one such hit: the pulse above 5 % of its peak spans 2 sd
+#: sqrt(2 ln 20) = 2.45 ms, plus PRE + POST + 2 TAPER = 40 samples = 7.8 ms, so 10.3 ms; 12 ms
+#: leaves two samples for noise moving a threshold crossing on either side
+ONE_HIT_SUPPORT = 0.012
+
+
+def hammer_force(seed=3, noise=HAMMER_NOISE, hits=((HAMMER_T0, HAMMER_PEAK),)):
+    time = np.arange(HAMMER_N) / HAMMER_FS
+    force = sum(cases.force_pulse(time, t0=t0, width=HAMMER_SD, peak=peak) for t0, peak in hits)
+    return time, force + noise * np.random.default_rng(seed).standard_normal(HAMMER_N)
+
+
+def support(window):
+    """Duration (s) of the samples where the window is open."""
+    return np.count_nonzero(window) / HAMMER_FS
+
+
+def test_noisy_force_channel_gives_a_window_of_a_few_ms():
+    """1 % force noise: the window holds the hit and stays a few ms long (ONE_HIT_SUPPORT)."""
+    time, force = hammer_force()
+    window = impact_window(force)
+    assert support(window) <= ONE_HIT_SUPPORT
+    assert window[round(HAMMER_T0 * HAMMER_FS)] == 1.0
+    assert not window[time > HAMMER_T0 + ONE_HIT_SUPPORT].any()
+
+
+def test_a_lone_spike_late_in_the_record_does_not_widen_the_window():
+    """A single sample 8 noise sd high at 3.73 s (over both the 5 % and the 5 sd thresholds):
+    the old rule stretched the window from the impact to it. It is found, called a spike, and
+    the window is the one of the record without it, sample for sample (the threshold is 5 % of
+    the peak here, which the spike does not move)."""
+    _, force = hammer_force()
+    late = int(3.73 * HAMMER_FS)
+    spiked = force.copy()
+    spiked[late] = 8 * HAMMER_NOISE
+    pulses = find_pulses(spiked)
+    assert [p.start for p in pulses.spikes] == [late]
+    assert len(pulses.hits) == 1
+    np.testing.assert_array_equal(impact_window(spiked), impact_window(force))
+
+
+def test_a_double_hit_is_kept_and_reported():
+    """A bounce 5 ms after the impact and a second hit 300 ms after it, both pulse-shaped: three
+    hits found, each reported within 2 samples of its true time (a Gaussian of sd 2.6 samples
+    falls 7 % one sample off its top, more than the 1-2 % noise can lift a neighbour), and the
+    window open at each but closed between the bounce and the second hit (not one long span)."""
+    truth = ((HAMMER_T0, HAMMER_PEAK), (HAMMER_T0 + 0.005, 4.0), (HAMMER_T0 + 0.300, 3.0))
+    time, force = hammer_force(hits=truth)
+    pulses = find_pulses(force)
+    assert not pulses.spikes
+    assert len(pulses.hits) == 3
+    found = np.array([p.peak_index for p in pulses.hits])
+    np.testing.assert_allclose(found, [t0 * HAMMER_FS for t0, _ in truth], atol=2)
+    window = impact_window(force)
+    assert all(window[round(t0 * HAMMER_FS)] == 1.0 for t0, _ in truth)
+    assert not window[(time > HAMMER_T0 + 0.005 + ONE_HIT_SUPPORT) & (time < HAMMER_T0 + 0.3 - ONE_HIT_SUPPORT)].any()
+    assert support(window) <= 3 * ONE_HIT_SUPPORT
+
+
+def test_threshold_follows_the_noise_when_the_noise_is_strong():
+    """Force noise at 3 % of the peak: 5 % of the peak is only 1.7 noise sd, which thousands of
+    noise samples pass. The threshold is 5 robust noise sd instead (within the MAD estimate's
+    2 % sd at 20 000 samples, checked to 5 %), no spike is called a hit, and the window keeps
+    one hit's length."""
+    _, force = hammer_force(noise=0.3)
+    pulses = find_pulses(force)
+    assert pulses.threshold == pytest.approx(5 * 0.3, rel=0.05)
+    assert len(pulses.hits) == 1
+    assert support(impact_window(force)) <= ONE_HIT_SUPPORT
+
+
+def hammer_recording(hits):
+    _, force = hammer_force(hits=hits)
+    rec = cases.base_recording(fs=HAMMER_FS, duration=HAMMER_N / HAMMER_FS)
+    return replace(rec, force=force)
+
+
+def test_many_latent_samples_warn():
+    """Three hits kept at the recorded rate: about 3 x 45 latent force-noise samples, over
+    MAX_LATENT, and the warning names the count and the hits. Decimated by 10 (as a fit below
+    200 Hz would) the same window leaves about 15: no warning."""
+    rec = hammer_recording(((HAMMER_T0, HAMMER_PEAK), (HAMMER_T0 + 0.005, 4.0), (HAMMER_T0 + 0.300, 3.0)))
+    with pytest.warns(UserWarning, match=r"force window keeps \d+ samples.*3 hit\(s\)") as record:
+        noise = force_noise(rec)
+    assert noise.size > MAX_LATENT and str(noise.size) in str(record[0].message)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)
+        assert force_noise(rec, 10).size < MAX_LATENT
