@@ -21,7 +21,7 @@ from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, SPECTRUM_BANDS
 from bayesbeam.compare import strength
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
-from bayesbeam.report.markdown import markdown_table, significant
+from bayesbeam.report.markdown import markdown_table, median_and_interval
 
 # plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
 from bayesbeam.report.plots import (
@@ -415,18 +415,10 @@ def ranking_markdown(summary) -> str:
                      "best" if m == summary["best"] else f"{s['log_bayes_factor_vs_best']:.1f}",
                      str(s["discretisation_check"]["n_intervals"]),
                      f"{min(p_values):.2g}" if p_values else "n/a",
-                     "; ".join(f"{name} {_median_and_interval(q)}" for name, q in s["posterior"].items())])
+                     "; ".join(f"{name} {median_and_interval(q)}" for name, q in s["posterior"].items())])
     head = ["model", "log Z", "sd", "ln B vs best", "N", "smallest predictive p",
             "posterior median [90% interval], SI units"]
     return markdown_table(head, rows)
-
-
-def _median_and_interval(q) -> str:
-    """'median [q05, q95]' with the significant digits that resolve the interval (3 at least)."""
-    width = q["q95"] - q["q05"]
-    ratio = abs(q["q50"]) / width if width > 0 and q["q50"] else 1.0
-    digits = min(8, 3 + max(0, int(np.floor(np.log10(ratio)))))
-    return f"{significant(q['q50'], digits)} [{significant(q['q05'], digits)}, {significant(q['q95'], digits)}]"
 
 
 # ---------------------------------------------------------------------------- helpers

@@ -86,6 +86,20 @@ def significant(value: float, digits: int = 4) -> str:
     return f"{value:.{digits}g}"
 
 
+def resolving_digits(q: dict) -> int:
+    """Significant digits that resolve a posterior summary's 90% interval (``q05``, ``q50``, ``q95``):
+    three, plus one per decade the median stands above the interval's width."""
+    width = q["q95"] - q["q05"]
+    ratio = abs(q["q50"]) / width if width > 0 and q["q50"] else 1.0
+    return min(8, 3 + max(0, int(np.floor(np.log10(ratio)))))
+
+
+def median_and_interval(q: dict) -> str:
+    """'median [q05, q95]' of a posterior summary, to :func:`resolving_digits`."""
+    digits = resolving_digits(q)
+    return f"{significant(q['q50'], digits)} [{significant(q['q05'], digits)}, {significant(q['q95'], digits)}]"
+
+
 def _span(text: str, name: str, source: str) -> tuple[int, int]:
     """(end of the begin marker's line, start of the end marker's line) of block ``name``."""
     begins = [m for m in _MARKER.finditer(text) if m.groups() == ("begin", name)]
