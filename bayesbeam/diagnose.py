@@ -31,7 +31,10 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
    model becomes another damping model + effects only when that model's log evidence beats it by
    the same decisive margin as an effect needs.
 7. **Show.** Whatever beam physics the final model still misses (map regions not labelled as
-   pickup, or a significant projected mismatch) is reported as ``unexplained``, with where it is.
+   pickup) is reported as ``unexplained``, with where it is, when its misfit is also practically
+   significant: at least :data:`~bayesbeam.checks.discrepancy.PRACTICAL_SHARE` (1 %) of the
+   channel's signal (:mod:`bayesbeam.checks.discrepancy`, section (e)). Smaller statistically
+   significant regions are listed as negligible.
 
 Nothing is fitted when the baseline's map flags nothing and its signature mismatch is
 insignificant: there is nothing to explain, and ``added`` is empty.
@@ -43,12 +46,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayesbeam.checks.discrepancy import ALPHA, Mismatch, locate
+from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locate
 from bayesbeam.checks.signatures import rank_effects
 from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
 from bayesbeam.compare import summarise as summarise_comparison
 from bayesbeam.inference.priors import default_priors
-from bayesbeam.model import BeamModel, resolve_model
+from bayesbeam.model import BeamModel, join_model, resolve_model
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
 DECISIVE = 5.0
@@ -131,8 +134,15 @@ class Diagnosis:
         return [t.effect for t in self.trials if t.added]
 
     def remaining(self) -> list[dict]:
-        """Map regions of the final model that are beam physics (not labelled pickup/non-decaying)."""
-        return beam_regions(self.final_mismatch)
+        """Map regions of the final model that are beam physics (not labelled pickup/non-decaying)
+        and practically significant (their misfit reaches
+        :data:`~bayesbeam.checks.discrepancy.PRACTICAL_SHARE` of the channel's signal)."""
+        return [r for r in beam_regions(self.final_mismatch) if r["practically_significant"]]
+
+    def negligible(self) -> list[dict]:
+        """Beam-physics regions of the final model that are statistically significant but carry
+        less than :data:`~bayesbeam.checks.discrepancy.PRACTICAL_SHARE` of the channel's signal."""
+        return [r for r in beam_regions(self.final_mismatch) if not r["practically_significant"]]
 
     @property
     def unexplained(self) -> bool:
@@ -156,14 +166,20 @@ class Diagnosis:
 
 # ---------------------------------------------------------------------------- the diagnosis
 def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None, executor=None,
-             log=None) -> Diagnosis:
-    """Diagnose ``rec`` against ``model`` (None: the best of the default models by evidence)."""
+             log=None, effects: tuple = ()) -> Diagnosis:
+    """Diagnose ``rec`` against ``model`` (None: the best of the default models by evidence).
+
+    ``effects``: effects known to be present, joined to ``model`` or to each default model that
+    can carry them (:func:`combinable`); the catalogue search adds to them.
+    """
     config = config or DiagnoseConfig()
     say = log or (lambda _text: None)
     started = time.perf_counter()
     rng = np.random.default_rng(config.compare.seed)
-    models = [model] if model else list(DEFAULT_MODELS)
-    say(f"baseline: {'fitting ' + model if model else 'comparing ' + ', '.join(models)}")
+    effects = tuple(effects)
+    models = ([join_model(model, effects)] if model
+              else [s for s in (join_model(m, effects) for m in DEFAULT_MODELS) if combinable(s)])
+    say(f"baseline: {'fitting ' + models[0] if model else 'comparing ' + ', '.join(models)}")
     results, summary = compare(rec, models, config.compare, executor, log)
     current = results[summary["best"]]
     mismatch = _locate(current, rng, config)
@@ -200,7 +216,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     recheck = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
-        recheck = recheck_damping(rec, current, added, config, executor, log)
+        recheck = recheck_damping(rec, current, effects + added, config, executor, log)
         not_fitted += recheck.not_fitted
         if recheck.switched:
             current = recheck.results[recheck.best]
@@ -217,7 +233,7 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     """
     say = log or (lambda _text: None)
     known = _optimum_values(current)
-    specs = [f"{m}+{'+'.join(effects)}" for m in DEFAULT_MODELS]
+    specs = [join_model(m, effects) for m in DEFAULT_MODELS]
     others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)}, 0)
     say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}")
     started = time.perf_counter()
@@ -398,6 +414,7 @@ def summarise(d: Diagnosis) -> dict:
         "added": d.added,
         "unexplained": d.unexplained,
         "unexplained_regions": d.remaining(),
+        "negligible_regions": d.negligible(),
         "not_beam_physics": [r for r in d.final_mismatch.regions if r.get("beam_physics") is False],
         "final": {**_model_entry(final, d.final_mismatch), "mismatch": d.final_mismatch.regions,
                   "parameters": posterior_summary(final)},
@@ -407,7 +424,7 @@ def summarise(d: Diagnosis) -> dict:
         "maps": {"baseline": d.baseline_mismatch.to_dict(), "final": d.final_mismatch.to_dict()},
         "decision_rule": {"log_bayes_factor_above": DECISIVE, "by_standard_errors": DECISIVE_SD,
                           "map_must_improve": "RMS standardized residual falls and flags do not grow",
-                          "alpha": ALPHA},
+                          "alpha": ALPHA, "unexplained_needs_misfit_share": PRACTICAL_SHARE},
         "baseline_comparison": None if d.comparison is None else _evidence_table(d.comparison),
         "not_fitted": [{"round": n.round, "model": n.model, "reason": n.reason} for n in d.not_fitted],
         "damping_recheck": None if d.recheck is None else {
@@ -479,7 +496,11 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     if d.unexplained:
         text.append("Unexplained: " + "; ".join(
             f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz, {r['time_s'][0]:.3g}-{r['time_s'][1]:.3g} s on "
-            f"{r['sensor']} ({r['note']})" for r in d.remaining()) + ".")
+            f"{r['sensor']} ({r['note']}; {r['misfit_share']:.1%} of the channel's signal)"
+            for r in d.remaining()) + ".")
+    if d.negligible():
+        text.append(f"{len(d.negligible())} region(s) stand statistically above the noise but carry less than "
+                    f"{PRACTICAL_SHARE:.0%} of their channel's signal: too small to be a finding.")
     return " ".join(text)
 
 

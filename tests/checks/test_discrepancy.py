@@ -20,7 +20,7 @@ from functools import cache
 
 import numpy as np
 
-from bayesbeam.checks.discrepancy import ALPHA, Setting, decay_rates, holm, locate
+from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Setting, decay_rates, holm, locate
 from bayesbeam.inference.fit import FitConfig, prepare
 from bayesbeam.inference.likelihood import BandProjection
 from bayesbeam.inference.sampler import find_optimum
@@ -109,6 +109,40 @@ def test_mains_pickup_is_not_beam_physics():
     line = lines[0]
     assert line["band_hz"][0] <= 50.0 <= line["band_hz"][1]
     assert not line["beam_physics"] and "mains" in line["note"]
+
+
+def test_misfit_share_of_a_line_equals_its_energy_share_in_the_region():
+    """The mains line's misfit share (docstring (e)) computed here from the time signals by numpy's
+    FFT of each of the map's blocks: in the region's bins, the line's energy A^2 L/2 per block (A
+    the noise sd sigma, as recording("mains") makes it; 50 Hz falls on a bin of the 256-sample
+    blocks) over the prediction's energy 2|X_k|^2/L plus the noise's 2 sigma^2 per bin and block.
+    The line's cells stand ~60 x above the floor, so the noise inside them moves the share by about
+    1/sqrt(60 x 4) of itself; 10 % covers that and the fitted floor's own error."""
+    mis = fitted("mains")[2]
+    (line,) = mis.regions
+    s, spec = mis.setting, mis.spectrogram
+    L = s.projection.block
+    blocks = s.reference[s.projection.window, 0].reshape(-1, L)
+    f = np.fft.rfftfreq(L, 1 / s.projection.fs)
+    inside = np.abs(f - line["peak_hz"]) < (line["band_hz"][1] - line["band_hz"][0]) / 2
+    e_prediction = np.sum(2 * np.abs(np.fft.rfft(blocks, axis=1)[:, inside]) ** 2 / L)
+    rec = cases.base_recording()
+    clean = BeamModel.from_recording(rec, "q1", 6).simulate(dict(cases.TRUTH["q1"], cdI=1e-3))
+    sigma = 0.02 * np.sqrt(np.mean(clean**2))
+    e_line = len(blocks) * L * sigma**2 / 2
+    e_noise = len(blocks) * inside.sum() * 2 * sigma**2
+    expected = np.sqrt(e_line / (e_prediction + e_noise))
+    assert spec.block_duration_s * s.projection.fs == L and line["time_s"] == [0.0, 1.0]
+    assert abs(line["misfit_share"] - expected) < 0.1 * expected
+    assert line["practically_significant"] == (line["misfit_share"] >= PRACTICAL_SHARE)
+
+
+def test_the_root_springs_misfit_is_practically_significant():
+    """A root spring that shifts the low modes by 1.9 % leaves, after EI absorbed the common
+    shift, errors of several percent in amplitude and damping at the modes it flags (5 % and 9 %
+    here): each region's misfit is more than 1 % of what the recording holds there."""
+    mis = fitted("root_compliance")[2]
+    assert mis.regions and all(r["practically_significant"] for r in mis.regions)
 
 
 def test_decay_curvature_sign():
