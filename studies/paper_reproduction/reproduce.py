@@ -1,10 +1,12 @@
 """Reproduce E (eq. 38) and Table 4 of Banks & Inman (1989) from their Tables 1-3.
 
     python studies/paper_reproduction/reproduce.py [--out DIR]
+    python studies/paper_reproduction/reproduce.py --tables    # only README.md's block, from summary.json
 
 Writes into DIR (default: this folder) ``table4_side_by_side.csv``, ``table4.md``,
 ``summary.json``, ``modal_table_used.csv`` and ``table4_drift.png``; when DIR is this
-folder, the generated block of ``README.md`` is refreshed too.
+folder, the generated block of ``README.md`` (between its ``paper-reproduction`` markers) is
+rendered from ``summary.json`` too.
 
 What the paper leaves implicit, and how it is settled here (details in README.md):
 
@@ -327,67 +329,99 @@ def write_side_by_side(result, path):
             )
 
 
-def table4_markdown(result):
+def summary_document(result) -> dict:
+    """summary.json: the study's numbers, and Table 4 entry by entry (N s/m^2), from which the
+    README's block is rendered without recomputing."""
+    paper = result["paper"]
+    pub = paper["table4"].ravel()
+    summary = {k: result[k] for k in SUMMARY_KEYS + LP_KEYS}
+    summary.update({
+        "E_rounding_interval": list(result["E_rounding_interval"]),
+        "z1_range": list(result["z1_range"]),
+        "z1_half": result["z1_half"],
+        "zeta2_from_row12": result["zeta2_from_row12"],
+        "zeta2_table3": paper["zeta"][1],
+        "drop_one_min": float(np.min(result["drop_one"][~result["misprint"]])),
+        "rounding_bound_max_fraction": float(np.max(result["rounding_bound"] / np.abs(pub))),
+        "misprints": {f"1-{k} {c}": {"why": MISPRINTS[(k, c)], "printed": float(printed), "reachable": list(r)}
+                      for ((k, c), r), printed in zip(result["misprint_ranges"].items(),
+                                                     (dict(zip(result["labels"], pub))[kc]
+                                                      for kc in result["misprint_ranges"]))},
+        "table4": [{"modes": f"1-{k}", "coefficient": coef, "published": float(p), "reproduced": float(r),
+                    "reconstructed": float(rec), "verdict": v}
+                   for (k, coef), p, r, rec, v in zip(result["labels"], pub, result["direct"],
+                                                       result["reconstructed"], verdicts(result))],
+    })
+    return summary
+
+
+def table4_markdown(summary):
     """Published | reproduced | verdict, in the paper's units (c_d in 1e6 N s/m^2)."""
-    scale = np.tile([1, 1 / CD_SCALE, 1, 1 / CD_SCALE], 8)
-    pub, rep = result["paper"]["table4"].ravel() * scale, result["direct"] * scale
-    rec = result["reconstructed"] * scale
     lines = [
         "| modes | coefficient | published | reproduced (Table 3 as printed) | rel. diff. | reconstructed | verdict |",
         "|---|---|---:|---:|---:|---:|---|",
     ]
-    for i, ((k, coef), v) in enumerate(zip(result["labels"], verdicts(result))):
-        unit = " (x1e6)" if coef.endswith("c_d") else ""
-        lines.append(
-            f"| 1-{k} | {coef}{unit} | {pub[i]:.4f} | {rep[i]:.4f} | {(rep[i] - pub[i]) / pub[i]:+.2%} | {rec[i]:.4f} | {v} |"
-        )
+    for row in summary["table4"]:
+        c_d = row["coefficient"].endswith("c_d")
+        scale, unit = (1 / CD_SCALE, " (x1e6)") if c_d else (1.0, "")
+        pub, rep, rec = (row[k] * scale for k in ("published", "reproduced", "reconstructed"))
+        lines.append(f"| {row['modes']} | {row['coefficient']}{unit} | {pub:.4f} | {rep:.4f} | {(rep - pub) / pub:+.2%} "
+                     f"| {rec:.4f} | {row['verdict']} |")
     return "\n".join(lines)
 
 
-def summary_markdown(result):
-    """The study's findings as markdown bullets, every number computed here."""
-    paper = result["paper"]
-    found = verdicts(result)
+def summary_markdown(summary):
+    """The study's findings as markdown bullets, every number from summary.json."""
+    found = [row["verdict"] for row in summary["table4"]]
     counts = ", ".join(f"{found.count(v)} {v}" for v in dict.fromkeys(found))
-    printed = dict(zip(result["labels"], paper["table4"].ravel()))
     misprints = [
-        f"- Misprint: 1-{k} {coef} printed {printed[(k, coef)]:.4f}; inputs consistent with Table 3 and the rest "
-        f"of Table 4 give [{lo:.4f}, {hi:.4f}]."
-        for (k, coef), (lo, hi) in result["misprint_ranges"].items()
+        f"- Misprint: {label} printed {m['printed']:.4f}; inputs consistent with Table 3 and the rest "
+        f"of Table 4 give [{m['reachable'][0]:.4f}, {m['reachable'][1]:.4f}]."
+        for label, m in summary["misprints"].items()
     ]
     return "\n".join(
         [
             (
-                f"- E (eq. 27, modes 1-9, f1 = {F1_HZ} Hz): **{result['E']:.4e} Pa** (published 2.68e10, "
-                f"{result['E'] / E_PUBLISHED - 1:+.2%}); with every frequency moved by half its last printed digit "
-                f"E spans [{result['E_rounding_interval'][0]:.4e}, {result['E_rounding_interval'][1]:.4e}]. "
-                f"Modes 2-9 only: {result['E_modes_2_9']:.4e} Pa. Sample sd of the per-mode values: "
-                f"{result['E_sd']:.2e} Pa (the paper's 'variance of 0.6')."
+                f"- E (eq. 27, modes 1-9, f1 = {F1_HZ} Hz): **{summary['E']:.4e} Pa** (published 2.68e10, "
+                f"{summary['E'] / E_PUBLISHED - 1:+.2%}); with every frequency moved by half its last printed digit "
+                f"E spans [{summary['E_rounding_interval'][0]:.4e}, {summary['E_rounding_interval'][1]:.4e}]. "
+                f"Modes 2-9 only: {summary['E_modes_2_9']:.4e} Pa. Sample sd of the per-mode values: "
+                f"{summary['E_sd']:.2e} Pa (the paper's 'variance of 0.6')."
             ),
             (
-                f"- Mode 1 from row 1-2 of the 'both' fit: z1 = 2 zeta1 w1 = {result['z1']:.5f} 1/s "
-                f"(+-{result['z1_half']:.1e} from that row's rounding), i.e. zeta1 = {result['zeta1'] * 100:.4f} % at "
-                f"{F1_HZ} Hz; the same inversion gives zeta2 = {result['zeta2_from_row12'] * 100:.4f} % "
-                f"(Table 3: {paper['zeta'][1] * 100:.3f} %). All of Table 4 except the misprint allows "
-                f"z1 in [{result['z1_range'][0]:.5f}, {result['z1_range'][1]:.5f}] 1/s."
+                f"- Mode 1 from row 1-2 of the 'both' fit: z1 = 2 zeta1 w1 = {summary['z1']:.5f} 1/s "
+                f"(+-{summary['z1_half']:.1e} from that row's rounding), i.e. zeta1 = {summary['zeta1'] * 100:.4f} % at "
+                f"{F1_HZ} Hz; the same inversion gives zeta2 = {summary['zeta2_from_row12'] * 100:.4f} % "
+                f"(Table 3: {summary['zeta2_table3'] * 100:.3f} %). All of Table 4 except the misprint allows "
+                f"z1 in [{summary['z1_range'][0]:.5f}, {summary['z1_range'][1]:.5f}] 1/s."
             ),
             (
                 f"- Inputs within Table 3's printed rounding that reproduce Table 4 to its printed rounding: "
-                f"max deviation {result['t_without_misprints']:.2f} half-units without the misprint "
-                f"(<= 1 means all 31 entries reproduced), {result['t_all']:.0f} with it; with the theoretical "
-                f"frequency column instead of the experimental one: {result['t_theoretical_frequencies']:.0f}, "
-                f"with w from eq. (25) (Table 2 and E = 2.68e10): {result['t_model_frequencies']:.0f}; "
-                f"with exact eigenvalues instead of Table 2's: {result['t_exact_betas']:.2f}. Leaving out any "
-                f"single entry other than the misprint leaves at least "
-                f"{np.min(result['drop_one'][~result['misprint']]):.0f} half-units."
+                f"max deviation {summary['t_without_misprints']:.2f} half-units without the misprint "
+                f"(<= 1 means all 31 entries reproduced), {summary['t_all']:.0f} with it; with the theoretical "
+                f"frequency column instead of the experimental one: {summary['t_theoretical_frequencies']:.0f}, "
+                f"with w from eq. (25) (Table 2 and E = 2.68e10): {summary['t_model_frequencies']:.0f}; "
+                f"with exact eigenvalues instead of Table 2's: {summary['t_exact_betas']:.2f}. Leaving out any "
+                f"single entry other than the misprint leaves at least {summary['drop_one_min']:.0f} half-units."
             ),
             *misprints,
             (
                 f"- Direct reproduction from Table 3 as printed: {counts}; largest input-rounding bound "
-                f"{np.max(result['rounding_bound'] / np.abs(paper['table4'].ravel())):.1%} of the entry."
+                f"{summary['rounding_bound_max_fraction']:.1%} of the entry."
             ),
         ]
     )
+
+
+def result_block(summary) -> str:
+    """The README's generated block (and table4.md): the findings, then Table 4 side by side."""
+    return summary_markdown(summary) + "\n\n" + table4_markdown(summary)
+
+
+def blocks() -> dict[Path, dict[str, str]]:
+    """The README's generated block, from the committed summary.json."""
+    summary = json.loads((HERE / "summary.json").read_text())
+    return {HERE / "README.md": {"paper-reproduction": result_block(summary)}}
 
 
 def plot_drift(result, path):
@@ -417,45 +451,40 @@ def plot_drift(result, path):
     plt.close(fig)
 
 
-def _splice_readme(block):
-    """Replace the text between the README's generated-block markers."""
-    readme = HERE / "README.md"
-    start, end = "<!-- generated:start -->", "<!-- generated:end -->"
-    text = readme.read_text()
-    head, rest = text.split(start)
-    readme.write_text(f"{head}{start}\n{block}\n{end}{rest.split(end)[1]}")
-
-
 def write_outputs(result, out: Path):
+    from bayesbeam.io.atomic import write_text
+    from bayesbeam.io.provenance import write_json
+    from bayesbeam.report.markdown import write_files
+
     out.mkdir(parents=True, exist_ok=True)
     write_side_by_side(result, out / "table4_side_by_side.csv")
-    block = summary_markdown(result) + "\n\n" + table4_markdown(result)
-    (out / "table4.md").write_text(block + "\n")
+    summary = summary_document(result)
+    write_text(out / "table4.md", result_block(summary) + "\n")
     paper = result["paper"]
     write_modal_table(
         out / "modal_table_used.csv",
         ModalTable(tuple(range(1, 10)), tuple(paper["f_exp"]), tuple(result["zeta_used"])),
     )
-    summary = {k: result[k] for k in SUMMARY_KEYS + LP_KEYS}
-    summary["E_rounding_interval"] = list(result["E_rounding_interval"])
-    summary["z1_range"] = list(result["z1_range"])
-    summary["misprints"] = {
-        f"1-{k} {c}": {"why": MISPRINTS[(k, c)], "reachable": list(r)}
-        for (k, c), r in result["misprint_ranges"].items()
-    }
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json(summary, out / "summary.json")
     plot_drift(result, out / "table4_drift.png")
     if out.resolve() == HERE:
-        _splice_readme(block)
+        write_files(blocks())
+    return summary
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=HERE, help="output folder (default: this study's folder)")
+    parser.add_argument("--tables", action="store_true",
+                        help="only re-render README.md's block from the committed summary.json")
     args = parser.parse_args(argv)
-    result = reproduce()
-    write_outputs(result, args.out)
-    print(summary_markdown(result))
+    if args.tables:
+        from bayesbeam.report.markdown import write_files
+
+        write_files(blocks())
+        return
+    summary = write_outputs(reproduce(), args.out)
+    print(summary_markdown(summary))
 
 
 if __name__ == "__main__":
