@@ -21,7 +21,6 @@ drag and tip friction each changing the response by 10 % RMS. ``recordings.md`` 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -31,6 +30,7 @@ from scipy import optimize, signal
 
 from bayesbeam.io import Beam, Excitation, Recording, Sensor, TipBody, load_recording, write_recording
 from bayesbeam.io.atomic import write_text
+from bayesbeam.io.provenance import write_json
 from bayesbeam.model import BeamModel
 
 HERE = Path(__file__).resolve().parent
@@ -152,7 +152,7 @@ def main(argv=None) -> int:
             values = calibrate(effect, BEAMS[beam_name]) if effect else {}
             rec, truth = make(beam_name, effect, values, seed)
             path = write_recording(rec, HERE / "recordings" / name, overwrite=args.overwrite)
-            write_text(path / "truth.json", json.dumps(truth, indent=2) + "\n")
+            write_json(truth, path / "truth.json")
             load_recording(path)                                    # it reads back
             shift = truth["size"] and truth["size"].get("frequency_shift_percent")
             table.append(f"| {name} | {truth['damping_model']} {truth['damping']} | {effect or '-'} | "
