@@ -1,7 +1,7 @@
-"""Where independent jobs run: this process, local worker processes, or a Dask cluster.
+"""Where independent jobs run: this process, local worker processes, MPI ranks or a Dask cluster.
 
-``get_executor(None | "local" | "serial" | "tcp://host:8786", processes)`` returns an object
-with ``map(fn, *iterables) -> list`` (results in order) and ``close()``. Jobs must be module-level
+``get_executor(None | "local" | "serial" | "mpi" | "tcp://host:8786", processes)`` returns an
+object with ``map(fn, *iterables) -> list`` (results in order) and ``close()``. Jobs must be module-level
 functions of picklable arguments. Local processes are spawned (not forked), so a job sees a fresh
 interpreter and BLAS is limited to one thread per worker (two workers on two cores, not two
 workers each starting two BLAS threads).
@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import os
 from concurrent.futures import ProcessPoolExecutor
+
+#: address schemes of a Dask scheduler
+DASK_SCHEMES = ("tcp://", "tls://", "inproc://", "ucx://")
 
 
 class SerialExecutor:
@@ -63,14 +66,39 @@ class DaskExecutor:
             self.client.close()
 
 
+class MPIExecutor:
+    """Jobs on the worker ranks of an MPI launch (``mpi4py.futures``)."""
+
+    def __init__(self):
+        self._pool = mpi_pool_class()()
+
+    def map(self, fn, *iterables) -> list:
+        return list(self._pool.map(fn, *iterables))
+
+    def close(self) -> None:
+        self._pool.shutdown()
+
+
+def mpi_pool_class():
+    """``mpi4py.futures.MPIPoolExecutor``; ValueError naming the fix when mpi4py is missing."""
+    try:
+        from mpi4py.futures import MPIPoolExecutor
+    except ImportError:
+        raise ValueError("--executor mpi needs mpi4py (pip install mpi4py) and an MPI launch, e.g. "
+                         "mpiexec -n 8 python -m mpi4py.futures -m bayesbeam.cli COMMAND ...") from None
+    return MPIPoolExecutor
+
+
 def get_executor(spec=None, processes: int | None = None):
     """An executor from a command-line ``--executor`` value (see module docstring)."""
     if spec is not None and not isinstance(spec, str):
         return DaskExecutor(spec)
-    if spec and spec.startswith(("tcp://", "tls://", "inproc://", "ucx://")):
+    if spec and spec.startswith(DASK_SCHEMES):
         return DaskExecutor(spec)
+    if spec == "mpi":
+        return MPIExecutor()
     if spec not in (None, "local", "serial"):
-        raise ValueError(f"--executor {spec!r}: expected 'local', 'serial' or a Dask scheduler address "
+        raise ValueError(f"--executor {spec!r}: expected 'serial', 'local', 'mpi' or a Dask scheduler address "
                          f"such as tcp://host:8786")
     processes = processes or os.cpu_count() or 1
     return SerialExecutor() if spec == "serial" or processes == 1 else LocalExecutor(processes)

@@ -64,6 +64,15 @@ def split_model(spec) -> tuple[tuple[str, ...], tuple[str, ...]]:
     return tuple(mechanisms), tuple(effects)
 
 
+def join_model(spec: str, effects=()) -> str:
+    """The model name of ``spec`` with ``effects`` joined in.
+
+    >>> join_model("q2", ["sensor_mass", "axial_load"])
+    'q2+sensor_mass+axial_load'
+    """
+    return "+".join([spec, *effects])
+
+
 def resolve_model(spec, effects=None) -> tuple[tuple, tuple]:
     """(mechanism objects, effect objects) of ``spec`` (see :func:`split_model`) plus ``effects``;
     ValueError naming the unknown or repeated names."""
@@ -89,6 +98,16 @@ def _check_nonlinear(model) -> None:
                          "the nonlinear integrator needs a state-space model")
 
 
+def _check_requirements(model) -> None:
+    """Refuse a component without those it needs (the root dashpot without the root spring)."""
+    names = [c.name for c in model.components]
+    for c in model.components:
+        missing = [r for r in c.requires if r not in names]
+        if missing:
+            raise ValueError(f"{c.name} needs {', '.join(missing)} in the same model: "
+                             f"use {'+'.join(names + missing)}")
+
+
 class BeamModel:
     """A cantilever with tip body, damping mechanisms, and one recording's test set-up.
 
@@ -111,7 +130,10 @@ class BeamModel:
     def __init__(self, recording: Recording, mechanisms="q1", n_intervals: int = 16,
                  force_window: bool | None = None, effects=None):
         self.recording = recording
-        self.mechanisms, self.effects = resolve_model(mechanisms, effects)
+        # bound to the recording: a mechanism may read its description (thermoelastic: [material])
+        self.mechanisms, self.effects = (tuple(c.bind(recording) for c in group)
+                                         for group in resolve_model(mechanisms, effects))
+        _check_requirements(self)
         self.n_intervals = int(n_intervals)
         beam, tip = recording.beam, recording.tip
         root = "pinned" if any(e.root == "pinned" for e in self.effects) else "clamped"
@@ -200,7 +222,8 @@ class BeamModel:
         return system
 
     def _damping(self, v: dict[str, float]):
-        """The mechanisms' summed damping matrix and relaxation transform (None without memory)."""
+        """The mechanisms' and effects' summed damping matrix and the relaxation transform (None
+        without memory)."""
         ops = self.ops
         damping = np.zeros((ops.size, ops.size))
         relaxations = []
@@ -211,6 +234,10 @@ class BeamModel:
             g = m.relaxation(v)
             if g is not None:
                 relaxations.append(g)
+        for e in self.effects:
+            d = e.damping(ops, v, self.setup)
+            if d is not None:
+                damping = damping + d
         relaxation = None
         if relaxations:
             relaxation = relaxations[0] if len(relaxations) == 1 else (
@@ -245,7 +272,8 @@ class BeamModel:
     @cached_property
     def _departures(self) -> np.ndarray | None:
         """Orthonormal directions (n, r) along which M and K depart from rho_a M_0 and EI K_0: the
-        tip body's and the effects' (see :attr:`SecondOrderSystem.departures`).
+        tip body's and the effects' (see :attr:`SecondOrderSystem.departures`); an effect's damping
+        (the root dashpot) departs from a combination of M_0 and K_0 along its own directions too.
 
         Each effect's matrix scales with its parameter, so the directions are parameter-free:
         found once, with every effect at unit values. None when some mechanism's damping is not
@@ -258,8 +286,8 @@ class BeamModel:
         ops, unit = self.ops, {p: 1.0 for e in self.effects for p in e.parameters}
         blocks = [ops.M - ops.rho_a * ops.M0]
         for e in self.effects:
-            blocks += [b for b in (e.mass(ops, unit, self.setup), e.stiffness(ops, unit, self.setup))
-                       if b is not None]
+            blocks += [b for b in (e.mass(ops, unit, self.setup), e.stiffness(ops, unit, self.setup),
+                                   e.damping(ops, unit, self.setup)) if b is not None]
         u, sv, _ = np.linalg.svd(np.hstack(blocks), full_matrices=False)
         rank = int(np.sum(sv > 1e-12 * sv[0])) if sv[0] > 0 else 0
         return u[:, :rank] if 0 < rank <= LOW_RANK_MAX else None

@@ -14,7 +14,7 @@ import numpy as np
 
 from bayesbeam.inference.likelihood import NOISE_MODELS, BandProjection, Likelihood
 from bayesbeam.inference.posterior import LogPosterior
-from bayesbeam.inference.priors import Prior, default_priors, prior_from_table
+from bayesbeam.inference.priors import Prior, default_priors, noise_prior, prior_from_table
 from bayesbeam.inference.sampler import (
     Chains,
     Optimum,
@@ -123,7 +123,7 @@ def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     priors = default_priors(rec.beam, model.parameter_names, likelihood.channel_rms)
     for name in likelihood.noise_names:
         if name.startswith("phi_"):
-            priors[name] = Prior("uniform", -0.99, 0.99)
+            priors[name] = noise_prior("phi")
     unknown = sorted(set(config.priors) - set(priors))
     if unknown:
         raise ValueError(f"prior given for {unknown}, which model {model.name} does not have; "

@@ -51,6 +51,8 @@ from dataclasses import dataclass
 import numpy as np
 
 KINDS = ("lognormal", "loguniform", "uniform")
+#: the names of a kind's two numbers, as a [prior.NAME] table spells them
+BOUND_NAMES = {"lognormal": ("median", "sigma"), "loguniform": ("low", "high"), "uniform": ("low", "high")}
 
 
 @dataclass(frozen=True)
@@ -112,45 +114,83 @@ class Prior:
         return float(np.mean(self.bounds())) if self.kind != "lognormal" else float(np.log(self.a))
 
     def describe(self) -> str:
-        names = {"lognormal": ("median", "sigma"), "loguniform": ("low", "high"), "uniform": ("low", "high")}
-        k1, k2 = names[self.kind]
+        k1, k2 = BOUND_NAMES[self.kind]
         return f"{self.kind}({k1}={self.a:.4g}, {k2}={self.b:.4g})"
+
+
+#: The default table above as data: parameter -> (kind, first, second), each of the two numbers a
+#: factor times a scale of the beam named in :data:`SCALES` ("" for none).
+DEFAULTS: dict[str, tuple[str, tuple[float, str], tuple[float, str]]] = {
+    "EI": ("lognormal", (1.0, "EI_0"), (0.25, "")),
+    "gamma": ("loguniform", (1e-5, ""), (1e2, "")),
+    "cdI": ("loguniform", (1e-10, ""), (1e-1, "")),
+    "alpha": ("loguniform", (1e-6, "EI_0"), (1.0, "EI_0")),
+    "beta": ("loguniform", (1e-2, ""), (1e4, "")),
+    "a": ("loguniform", (1e-6, ""), (1e2, "")),
+    "b": ("loguniform", (1e-3, "l"), (1.0, "l")),
+    "k_theta": ("loguniform", (1.0, "EI_0/l"), (1e5, "EI_0/l")),
+    "m_s": ("loguniform", (1e-4, ""), (0.2, "rho A l")),
+    "P": ("uniform", (-0.5, "P_cr"), (10.0, "P_cr")),
+    "c_q": ("loguniform", (1e-4, ""), (1e3, "")),
+    "F_c": ("loguniform", (1e-5, ""), (10.0, "")),
+    "tau": ("uniform", (0.0, ""), (0.005, "")),
+}
+#: the noise parameters' defaults, per channel <s>: sigma_<s> scales with the channel's RMS
+NOISE_DEFAULTS: dict[str, tuple[str, tuple[float, str], tuple[float, str]]] = {
+    "sigma": ("loguniform", (1e-6, "RMS"), (10.0, "RMS")),
+    "phi": ("uniform", (-0.99, ""), (0.99, "")),
+}
+#: the scales of the defaults: l = beam length, EI_0 = nominal E*I, rho A l = the beam's mass,
+#: P_cr = pi^2 EI_0 / (4 l^2) (Euler buckling load of the cantilever)
+SCALES = {
+    "": lambda beam: 1.0,
+    "EI_0": lambda beam: beam.nominal_EI,
+    "l": lambda beam: beam.length,
+    "EI_0/l": lambda beam: beam.nominal_EI / beam.length,
+    "rho A l": lambda beam: beam.rho_a * beam.length,
+    "P_cr": lambda beam: np.pi**2 * beam.nominal_EI / (4 * beam.length**2),
+}
 
 
 def default_priors(beam, parameter_names, channel_rms: dict[str, float]) -> dict[str, Prior]:
     """The default table above, for a model's parameters and a recording's channels."""
-    ei0, length, mass = beam.nominal_EI, beam.length, beam.rho_a * beam.length
-    p_cr = np.pi**2 * ei0 / (4 * length**2)
-    table = {
-        "EI": Prior("lognormal", ei0, 0.25),
-        "gamma": Prior("loguniform", 1e-5, 1e2),
-        "cdI": Prior("loguniform", 1e-10, 1e-1),
-        "alpha": Prior("loguniform", 1e-6 * ei0, ei0),
-        "beta": Prior("loguniform", 1e-2, 1e4),
-        "a": Prior("loguniform", 1e-6, 1e2),
-        "b": Prior("loguniform", 1e-3 * length, length),
-        "k_theta": Prior("loguniform", ei0 / length, 1e5 * ei0 / length),
-        "m_s": Prior("loguniform", 1e-4, 0.2 * mass),
-        "P": Prior("uniform", -0.5 * p_cr, 10 * p_cr),
-        "c_q": Prior("loguniform", 1e-4, 1e3),
-        "F_c": Prior("loguniform", 1e-5, 10.0),
-        "tau": Prior("uniform", 0.0, 0.005),
-    }
     out = {}
     for name in parameter_names:
-        if name not in table:
+        if name not in DEFAULTS:
             raise ValueError(f"no default prior for parameter {name!r}; give one in the fit file "
                              f"as [prior.{name}]")
-        out[name] = table[name]
+        kind, (a, scale_a), (b, scale_b) = DEFAULTS[name]
+        out[name] = Prior(kind, a * SCALES[scale_a](beam), b * SCALES[scale_b](beam))
+    kind, (low, _), (high, _) = NOISE_DEFAULTS["sigma"]
     for channel, rms in channel_rms.items():
-        out[f"sigma_{channel}"] = Prior("loguniform", 1e-6 * rms, 10 * rms)
+        out[f"sigma_{channel}"] = Prior(kind, low * rms, high * rms)
     return out
+
+
+def noise_prior(kind_of_parameter: str) -> Prior:
+    """The default prior of a noise parameter that does not scale with its channel (``"phi"``)."""
+    kind, (a, _), (b, _) = NOISE_DEFAULTS[kind_of_parameter]
+    return Prior(kind, a, b)
+
+
+def describe_default(name: str) -> str:
+    """A default prior in terms of the beam's scales, e.g. ``loguniform(low=1e-06 EI_0, high=EI_0)``;
+    ``name`` is a parameter of :data:`DEFAULTS` or a noise parameter of :data:`NOISE_DEFAULTS`."""
+    kind, *bounds = DEFAULTS[name] if name in DEFAULTS else NOISE_DEFAULTS[name]
+    terms = [f"{key}={_scaled(factor, scale)}" for key, (factor, scale) in zip(BOUND_NAMES[kind], bounds)]
+    return f"{kind}({', '.join(terms)})"
+
+
+def _scaled(factor: float, scale: str) -> str:
+    if not scale:
+        return f"{factor:.4g}"
+    return scale if factor == 1 else f"{factor:.4g} {scale}"
 
 
 def prior_from_table(name: str, table: dict, file: str = "fit file") -> Prior:
     """A Prior from a ``[prior.NAME]`` TOML table; ValueError naming the key and the fix."""
     kind = table.get("kind")
-    keys = {"lognormal": ("median", "sigma"), "loguniform": ("low", "high"), "uniform": ("low", "high")}
+    keys = BOUND_NAMES
     if kind not in keys:
         raise ValueError(f"{file}: [prior.{name}] kind = {kind!r}: expected one of {KINDS}. "
                          f"Fix: e.g. kind = \"loguniform\" with low and high")
