@@ -2,8 +2,8 @@
 
     python benchmarks/compare.py [--max-frequency HZ] [--repeats R]
 
-on ``data/examples/paper_q3_hammer`` (4 s at 2048 Hz, the paper's beam, q3 damping). Target
-(issue 4): under 15 minutes on 2 cores. The baseline, measured in the same run, is one model's
+on ``data/examples/paper_q3_hammer`` (4 s at 2048 Hz, the paper's beam, q3 damping). Target:
+under 15 minutes on 2 cores. The baseline, measured in the same run, is one model's
 jobs (q1) run serially in this process: the printed parallel efficiency is
 (5 x that model's serial time) / (2 x the comparison's wall time), ~1 when both cores are busy
 all the time and the five models cost about the same.

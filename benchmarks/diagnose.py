@@ -3,7 +3,7 @@
     python benchmarks/diagnose.py [--model q1] [--max-frequency HZ]
 
 on ``data/examples/paper_rootcomp_hammer`` (the paper's beam, q1 damping, a root spring
-k_theta = 3500 N m/rad concealed). Target (issue 7): under 20 minutes on 2 cores. Without
+k_theta = 3500 N m/rad concealed). Target: under 20 minutes on 2 cores. Without
 ``--model`` the baseline is chosen by a comparison of the five default models first, as the
 command does without ``--model``. The baseline measured in the same run is one fit of the
 baseline damping model alone (optimum, discretisation, 3 SMC repeats, predictive checks) in this

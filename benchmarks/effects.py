@@ -254,8 +254,8 @@ def print_free_decay() -> None:
     A free decay's likelihood marginalises the modal amplitudes of the poles under the stopband:
     poles, their mode shapes and the damped exponentials on the fitted window. Timed: the latent
     terms and the marginal (``Likelihood.log_likelihood`` less its noise variances). The first row
-    builds the exponentials on every sample of the record instead (what the likelihood did before
-    session 8): the baseline for what the window saves.
+    builds the exponentials on every sample of the record instead: the baseline for what the
+    window saves.
     """
     from bayesbeam.inference.fit import FitConfig, prepare
     from bayesbeam.inference.likelihood import _marginal

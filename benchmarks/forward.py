@@ -14,7 +14,7 @@ Times ``model.simulate(params)`` for q1, q2, q3 at N = 16 and 32 on the 4 s, 204
   the samples as given and (b) on a grid 16x finer with the band-limited force;
   for q2 the augmented state space with ``pyyeti.ode.SolveExp1``.
 
-Then the missing-physics effects (issue #6) on the same recording: ``benchmarks/effects.py``, run
+Then the missing-physics effects on the same recording: ``benchmarks/effects.py``, run
 from here (its tables 1-3: each linear effect against its base model, drag and friction against
 100 ms, solve_ivp on the same nonlinear systems; with ``--quick`` its tables 1 and 1b alone).
 

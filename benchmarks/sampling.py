@@ -1,4 +1,4 @@
-"""Benchmark: posterior sampling speed for q3 on a 4 s, 2048 Hz recording (issue 3).
+"""Benchmark: posterior sampling speed for q3 on a 4 s, 2048 Hz recording.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/sampling.py [--n-intervals 64] [--quick]
 

@@ -1,4 +1,4 @@
-"""Cheap diagnoses shared by the diagnosis tests (computed once per test session).
+"""Cheap diagnoses shared by the diagnosis tests (computed once per pytest run).
 
 The inference tests' cheap case (paper beam, 1 s at 512 Hz, N = 6, 2 % noise, q1 damping,
 tests/inference/cases.py) with a concealed effect at the size docs/diagnosis.md validates the map
@@ -6,7 +6,7 @@ and the signatures on, diagnosed blind against q1 with 2 SMC repeats and 20 map 
 """
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 
 from bayesbeam.compare import CompareConfig
 from bayesbeam.diagnose import DiagnoseConfig, diagnose
@@ -24,7 +24,7 @@ def recording(effect: str | None, seed: int = 3):
     return cases.simulated("q1" + (f"+{effect}" if effect else ""), seed, params=params)[0]
 
 
-@lru_cache(maxsize=None)
+@cache
 def diagnosed(effect: str | None, seed: int = 3):
     """The Diagnosis of :func:`recording` against q1 (serial: the tests' processes are the cores)."""
     return diagnose(recording(effect, seed), "q1", CONFIG)

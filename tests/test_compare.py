@@ -1,6 +1,6 @@
 """compare() ranks the true damping mechanism first, and its summary has the documented layout.
 
-Acceptance (issue 4): recordings simulated from each of q1, q2, q3, air-only and strain-rate-only
+Acceptance: recordings simulated from each of q1, q2, q3, air-only and strain-rate-only
 on two beams, 2 % noise (a realistic accelerometer noise floor for a hammer test), are compared
 against all five models; the true model must rank first. The beams: the paper's (1 s at 512 Hz,
 modes 1-5 in the band, a 4 ms hammer pulse) and an aluminium strip with a 50 g tip block
@@ -93,7 +93,7 @@ def test_a_verdict_whose_best_model_fails_its_checks_points_to_the_diagnosis():
 
 
 def test_a_verdict_names_the_models_whose_evidence_has_not_settled():
-    """The real record with a sensor mass and an axial load (session 8): q3's three SMC repeats gave
+    """The real record with a sensor mass and an axial load: q3's three first-pass SMC repeats gave
     851.6, 242.0 and 303.3 nats (sd 194) with R-hat 1.10, while the winner's agreed to 0.1. The
     verdict must say that q3's place is not established; settled models (sd <= 1 nat, R-hat <=
     1.05: the shipped studies' runs spread by 0.02-0.18 nats, R-hat <= 1.03) are not named."""

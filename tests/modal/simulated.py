@@ -1,4 +1,4 @@
-"""Simulated recordings shared by the ERA and peer cross-checks (built once per session).
+"""Simulated recordings shared by the ERA and peer cross-checks (built once per pytest run).
 
 The shipped ``paper_q3_hammer`` example -- the paper's beam (Table 1), hammer at 0.75 m, tip
 accelerometer, its measured force and time grid -- plus a laser-vibrometer velocity channel at

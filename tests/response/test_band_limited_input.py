@@ -37,7 +37,7 @@ from tests.galerkin_reference import (
 )
 
 X_FORCE, PEAK, WIDTH_SAMPLES, START_SAMPLES, DURATION = 0.75, 100.0, 2.5, 64, 2.0
-# fs = 2048 Hz (the brief's rate): the beam's 10th mode, 949 Hz = 0.463 fs, rings inside the
+# fs = 2048 Hz (the shipped examples' rate): the beam's 10th mode, 949 Hz = 0.463 fs, rings inside the
 # DAQ transition band. fs = 1500 Hz: no mode within 0.40-0.50 fs (modes 8, 9 at 585, 755 Hz).
 RATES = (2048.0, 1500.0)
 
@@ -126,7 +126,7 @@ def test_in_band_output_is_exact(fs):
 def test_full_band_error_without_transition_band_modes():
     """fs = 1500 Hz, no mode between 0.40 and 0.50 fs: full-band relative RMS error 0.16%
     (measured; the hammer's own transition-band content, shaped by W instead of the DAQ's
-    Kaiser response), bound 0.5% (3x), under the brief's 1%."""
+    Kaiser response), bound 0.5% (3x), under the 1% asked of it."""
     fs = 1500.0
     _, accel = recorded(fs)
     y, _ = modelled(fs)
@@ -136,7 +136,7 @@ def test_full_band_error_without_transition_band_modes():
 def test_full_band_error_is_the_transition_band():
     """fs = 2048 Hz: the 10th mode (949 Hz = 0.463 fs) rings in the DAQ transition band, where the
     model's W (0.04 at 949 Hz) and this DAQ (0.19) differ by design. The full-band error is then
-    1.4% (measured; the brief's 1% does not hold at this rate), and it is all transition-band
+    1.4% (measured; 1% does not hold at this rate), and it is all transition-band
     content: its out-of-band part is > 99% of it (in RMS) and it does not exceed the recorded
     transition-band content (3.2%), which is all |W - L| <= 1 allows."""
     fs = 2048.0

@@ -40,7 +40,7 @@ def _energy(ops, w, v):
 @pytest.mark.parametrize("tip_body", [(0.0, 0.0), (0.2, 0.003)])
 def test_undamped_energy_is_conserved(tip_body):
     """After the pulse (6 std past its centre) E(t) is constant: peak-to-peak / mean 2.6e-9
-    (no tip body) and 4.4e-9 (tip body) measured, bound 1e-7 (the brief's). The exponential
+    (no tip body) and 4.4e-9 (tip body) measured, bound 1e-7 (the required accuracy). The exponential
     window amplifies round-off by up to e^18 ~ 7e7 towards the end of the record (1e-8
     relative), which the bound covers.
     The energy also equals the input work int f v(x_f) dt (trapezoid sum, exact for this
@@ -80,7 +80,7 @@ def test_energy_balance_with_damping(name, tip_body):
     exact g' = 2 v^T D a (acceleration output); what is left, dt^4/720 g'''(T), is below
     (2 omega_2 dt)^4 / 720 ~ 5e-7 of g'(T)-scale terms and in practice ~1e-9 (measured
     1.5e-10 to 1.5e-9 of the input work). Bound 1e-7 relative to the input work: 70x the
-    largest measured value, 100x tighter than the brief's 1e-5, and far below the dissipated
+    largest measured value, 100x tighter than the required 1e-5, and far below the dissipated
     fraction (5% spatial hysteresis, 14% strain rate, 42-67% air and the combinations).
     """
     ops = paper_operators(16, *tip_body)

@@ -58,7 +58,7 @@ def test_transfer_functions_are_reciprocal(model, tip_body, form):
 
     Measured: 0 (diagonal, bit-identical), 8e-17 (banded), 5e-15 (dense), up to 4.4e-12 (complex: round-off of the
     non-symmetric eigendecomposition of the 34 x 34 state matrix, whose poles span 3.7 Hz to
-    7.5 kHz). The brief's 1e-10 is 20x above the worst.
+    7.5 kHz). The required 1e-10 is 20x above the worst.
     """
     ops, system = _system(model, tip_body)
     assert system.form == form

@@ -56,7 +56,7 @@ def test_static_deflection_is_the_cantilever_formula(model):
 @pytest.mark.parametrize("model", MODELS, ids=str)
 def test_rests_in_static_deflection_before_release(model):
     """Samples from 100 to 80 samples before the release: tip displacement = P l^3/(3 EI_relaxed)
-    to 1e-6 (the brief's bound; measured 2e-11) and velocity below 1e-6 of its peak after the
+    to 1e-6 (the required bound; measured 2e-11) and velocity below 1e-6 of its peak after the
     release (measured 9e-9).
 
     The release is a band-limited step (its spectrum times the DAQ passband W, zero-phase), so
@@ -82,7 +82,7 @@ def test_rests_in_static_deflection_before_release(model):
 def test_displacement_at_the_release_instant(model):
     """At t = 0 itself the sample is that of the zero-phase filtered release, the midpoint of the
     band-limited step: the beam has begun to move by 2.1e-5 to 2.6e-5 of the static deflection
-    (measured, fs = 2048 Hz). It equals the static deflection to 1e-4, not 1e-6: the brief's
+    (measured, fs = 2048 Hz). It equals the static deflection to 1e-4, not 1e-6: the required
     1e-6 holds before the release (test above), not at the release instant."""
     ops = paper_operators(16)
     system, r = _system(ops, model)

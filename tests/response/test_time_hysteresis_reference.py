@@ -63,7 +63,7 @@ def test_relaxation_transform_matches_quadrature(r):
 
     QUADPACK is asked for 1e-12 on integrands that are smooth once the singular and oscillatory
     factors are taken as weights; the closed form is exact to round-off (complex erf ~1e-15).
-    1e-8 is the brief's tolerance: far above both, far below any wrong factor, sign, branch or
+    1e-8 is the required tolerance: far above both, far below any wrong factor, sign, branch or
     truncation. The s values include a real one, Re s < 0 (Re(s + beta) > 0 suffices), negative
     and high (700 Hz) frequencies.
     """
