@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -25,12 +26,13 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "data" / "examples" / "paper_q3_
 TARGET_SECONDS = 15 * 60
 
 
-def main() -> None:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-frequency", type=float, default=None,
                         help="top of the fitted band (Hz; default 0.38 fs as in compare)")
     parser.add_argument("--repeats", type=int, default=3)
-    args = parser.parse_args()
+    parser.add_argument("--tables", action="store_true", help="only re-render README.md's block from benchmarks/results/compare.json")
+    args = parser.parse_args(argv)
     rec = load_recording(EXAMPLE)
     config = CompareConfig(FitConfig(max_frequency=args.max_frequency), repeats=args.repeats)
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()}")
@@ -54,6 +56,10 @@ def main() -> None:
     print(f"parallel efficiency vs the baseline: {len(DEFAULT_MODELS) * baseline / (2 * wall):.2f}")
     print(f"ranking {summary['ranking']}; load at the end {os.getloadavg()}")
 
+    return 0
+
 
 if __name__ == "__main__":
-    main()
+    import tables
+
+    sys.exit(tables.run("compare", main))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -27,11 +28,12 @@ EXAMPLE = Path(__file__).resolve().parents[1] / "data" / "examples" / "paper_roo
 TARGET_SECONDS = 20 * 60
 
 
-def main() -> None:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", default=None, help="baseline model (default: chosen by a comparison)")
     parser.add_argument("--max-frequency", type=float, default=150.0, help="top of the fitted band (Hz)")
-    args = parser.parse_args()
+    parser.add_argument("--tables", action="store_true", help="only re-render README.md's block from benchmarks/results/diagnose.json")
+    args = parser.parse_args(argv)
     rec = load_recording(EXAMPLE)
     config = DiagnoseConfig(CompareConfig(FitConfig(max_frequency=args.max_frequency)))
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()}")
@@ -56,6 +58,10 @@ def main() -> None:
     print(f"baseline {summary['baseline']['model']}, added {summary['added'] or 'nothing'}, "
           f"unexplained {summary['unexplained']}; load at the end {os.getloadavg()}")
 
+    return 0
+
 
 if __name__ == "__main__":
-    main()
+    import tables
+
+    sys.exit(tables.run("diagnose", main))

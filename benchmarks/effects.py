@@ -370,6 +370,7 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="solve_ivp on 0.25 s instead of 0.5 s")
     parser.add_argument("--wall", action="store_true", help="wall time instead of process CPU time")
     parser.add_argument("--linear-only", action="store_true", help="only tables 1, 1b, 1c and 1d (about 3 minutes)")
+    parser.add_argument("--tables", action="store_true", help="only re-render README.md's block from benchmarks/results/effects.json")
     args = parser.parse_args(argv)
     if args.wall:
         c.CLOCK["clock"] = time.perf_counter
@@ -469,4 +470,6 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import tables
+
+    sys.exit(tables.run("effects", main))

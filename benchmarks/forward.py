@@ -157,6 +157,7 @@ def main(argv=None) -> int:
                         help="time with wall-clock time (time.perf_counter) instead of process CPU time")
     parser.add_argument("--no-effects", action="store_true",
                         help="skip the missing-physics effects' tables (benchmarks/effects.py)")
+    parser.add_argument("--tables", action="store_true", help="only re-render README.md's block from benchmarks/results/forward and effects.json")
     args = parser.parse_args(argv)
     quick = args.quick
     if args.wall:
@@ -363,12 +364,22 @@ def main(argv=None) -> int:
     print()
     print(f"total {time.perf_counter() - started:.0f} s; load average at the end: "
           f"{', '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    if not args.no_effects:
-        import effects
-        print()
-        effects.main((["--linear-only"] if quick else []) + (["--wall"] if args.wall else []))
     return 0
 
 
+def run_all(argv: list[str]) -> int:
+    """The forward benchmark, then (unless ``--no-effects``) the effects benchmark, each saved to
+    benchmarks/results and rendered into benchmarks/README.md; ``--tables`` re-renders both."""
+    import effects
+    import tables
+
+    status = tables.run("forward", main, argv)
+    if status or "--no-effects" in argv:
+        return status
+    effects_argv = [a for a, given in (("--linear-only", "--quick" in argv), ("--wall", "--wall" in argv),
+                                       ("--tables", "--tables" in argv)) if given]
+    return tables.run("effects", effects.main, effects_argv)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_all(sys.argv[1:]))

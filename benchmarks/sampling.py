@@ -28,6 +28,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse
 import json
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -105,11 +106,12 @@ def time_to_ess(post, ball, seed: int, target_ess: float, pool=None) -> tuple[fl
             return time.perf_counter() - started, sampler.iteration, ess
 
 
-def main() -> None:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n-intervals", type=int, default=64)
     parser.add_argument("--quick", action="store_true", help="stop at ESS 200 and extrapolate to 1000")
-    args = parser.parse_args()
+    parser.add_argument("--tables", action="store_true", help="only re-render README.md's block from benchmarks/results/sampling.json")
+    args = parser.parse_args(argv)
     target = 200.0 if args.quick else 1000.0
     print(f"bayesbeam sampling benchmark; {platform.processor() or platform.machine()}, {os.cpu_count()} cores; "
           f"load at start {tuple(round(x, 2) for x in os.getloadavg())}")
@@ -140,7 +142,10 @@ def main() -> None:
     print(f"   ratio 1 process / 2 processes: {one[0] / two[0]:.2f}; with 2 processes "
           f"{scale * two[0] / TARGET_SECONDS:.2f} x the 5-minute target")
     print(f"load at end {tuple(round(x, 2) for x in os.getloadavg())}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    import tables
+
+    sys.exit(tables.run("sampling", main))

@@ -1,0 +1,98 @@
+"""The benchmarks' results and their blocks in benchmarks/README.md.
+
+Each benchmark script ends in :func:`run`: it runs the benchmark, keeping what it prints, writes
+``benchmarks/results/<name>.json`` (the command, its printed tables, the wall time and the
+provenance) and renders the README's ``<!-- begin: <name> -->`` block from that file. ``--tables``
+re-renders the block from the committed JSON without running anything. A benchmark with no
+committed result gets a block that says which command produces it, never numbers of another run.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "results"
+README = HERE / "README.md"
+#: the benchmarks with a block in README.md, in its order
+NAMES = ("forward", "effects", "sampling", "compare", "diagnose")
+
+sys.path.insert(0, str(HERE.parent))          # the working tree's bayesbeam, even if another copy is installed
+
+
+def command(name: str, argv: list[str]) -> str:
+    return " ".join(["python", f"benchmarks/{name}.py", *argv])
+
+
+def render(name: str) -> str:
+    """The README block of benchmark ``name``, from benchmarks/results/<name>.json."""
+    path = RESULTS / f"{name}.json"
+    if not path.exists():
+        return (f"Not measured yet: this table is produced by `{command(name, [])}` (see above), which writes "
+                f"`benchmarks/results/{name}.json`; nothing is shown here until it has been run.")
+    result = json.loads(path.read_text())
+    return (f"Output of `{result['command']}` ({result['seconds']:.0f} s wall time; "
+            f"`benchmarks/results/{name}.json`):\n\n```text\n{result['output'].strip()}\n```")
+
+
+def blocks() -> dict[Path, dict[str, str]]:
+    return {README: {name: render(name) for name in NAMES}}
+
+
+def write_table(name: str) -> Path:
+    from bayesbeam.report.markdown import write_blocks
+
+    return write_blocks(README, {name: render(name)})
+
+
+def run(name: str, main, argv: list[str] | None = None) -> int:
+    """Run ``main(argv)`` of benchmark ``name``, save what it printed and render its block.
+
+    With ``--tables`` in ``argv``: only re-render the block from the committed result.
+    """
+    from bayesbeam.io.provenance import write_json
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if "--tables" in argv:
+        print(f"wrote {write_table(name)}")
+        return 0
+    printed = io.StringIO()
+    started = time.perf_counter()
+    with contextlib.redirect_stdout(_Tee(sys.stdout, printed)):
+        status = main(argv)
+    seconds = time.perf_counter() - started
+    if status:
+        print(f"{name}: exit status {status}; results not saved", file=sys.stderr)
+        return status
+    RESULTS.mkdir(exist_ok=True)
+    write_json({"command": command(name, argv), "seconds": round(seconds, 1), "output": printed.getvalue()},
+               RESULTS / f"{name}.json")
+    print(f"wrote {RESULTS / f'{name}.json'} and {write_table(name)}")
+    return 0
+
+
+class _Tee(io.TextIOBase):
+    """A text stream writing to two others: the terminal and the record."""
+
+    def __init__(self, *streams):
+        self.streams = streams
+
+    def write(self, text: str) -> int:
+        for stream in self.streams:
+            stream.write(text)
+        return len(text)
+
+    def flush(self) -> None:
+        for stream in self.streams:
+            stream.flush()
+
+
+if __name__ == "__main__":
+    from bayesbeam.report.markdown import write_files
+
+    for path in write_files(blocks()):
+        print(f"wrote {path}")
