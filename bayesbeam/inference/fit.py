@@ -22,6 +22,7 @@ from bayesbeam.inference.sampler import (
     newton_shift,
     run_emcee,
 )
+from bayesbeam.io import RecordingError
 from bayesbeam.model import BeamModel
 from bayesbeam.response.linear import PASSBAND
 from bayesbeam.response.signals import EDGE, decimate, force_noise
@@ -34,6 +35,9 @@ SHIFT_TOLERANCE = 0.1
 DEFAULT_BAND = 0.38
 #: records longer than this (after windowing) are decimated by default to keep fits tractable
 MAX_DEFAULT_SAMPLES = 2**15
+#: fewest samples of the fitted window at the decimated rate: the band below max_frequency then
+#: holds about 0.4 x 64 = 25 frequencies of the window's DFT
+MIN_FIT_SAMPLES = 64
 
 
 @dataclass
@@ -113,6 +117,7 @@ def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     model = BeamModel.from_recording(data, mechanisms, n_intervals, force_window=False,
                                      effects=config.effects)
     i0, i1 = _window(data, config, edge=EDGE if factor > 1 else 0)
+    _check_length(rec, i1 - i0, factor, f_max)
     # default: up to 16 blocks of at least 256 samples that cover the window (the remainder is
     # under one sample per block); an explicit block longer than the window is refused
     n_blocks = int(np.clip((i1 - i0) // 256, 1, 16))
@@ -147,6 +152,21 @@ def _band(rec, config: FitConfig) -> tuple[int, float]:
                          f"{DEFAULT_BAND * rec.fs:.6g} Hz (the DAQ's passband ends at 0.40 fs)")
     factor = max(1, int(np.floor(PASSBAND * rec.fs / f_max)))
     return factor, f_max
+
+
+def _check_length(rec, n_fitted: int, factor: int, f_max: float) -> None:
+    """Refuse a record too short for the requested band (RecordingError naming the flags to change)."""
+    if n_fitted >= MIN_FIT_SAMPLES:
+        return
+    edge = EDGE if factor > 1 else 0
+    needed = (MIN_FIT_SAMPLES + edge) * factor / rec.fs
+    raise RecordingError(
+        rec.source or "recording", "the fitted window",
+        f"{rec.n_samples} samples at {rec.fs:.6g} Hz leave {max(n_fitted, 0)} samples to fit below "
+        f"{f_max:.6g} Hz (decimated by {factor}, less the last {edge} that the low-pass disturbs); "
+        f"at least {MIN_FIT_SAMPLES} are needed",
+        f"fit a window of at least {needed:.3g} s (--start/--stop, or a longer record), or raise --max-frequency",
+    )
 
 
 def _window(data, config: FitConfig, edge: int) -> tuple[int, int]:

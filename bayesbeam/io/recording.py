@@ -20,7 +20,8 @@ import tomllib
 import uuid
 import warnings
 from dataclasses import dataclass, field, fields, replace
-from datetime import date, datetime, time as clock_time
+from datetime import date, datetime
+from datetime import time as clock_time
 from functools import partial
 from pathlib import Path
 
@@ -32,6 +33,19 @@ KINDS = ("force", "release", "free_decay")
 QUANTITIES = ("acceleration", "velocity", "displacement")
 MAX_TIME_JITTER = 1e-6
 """Largest accepted relative deviation of any time step from the mean step."""
+MIN_SAMPLES = 256
+"""Fewest samples a record may hold. Every channel is the output of the DAQ's anti-alias
+low-pass, whose transition from 0.40 to 0.50 fs makes its impulse response last about
++-120 samples: a shorter record cannot hold one band-limited event, and the model's
+exponential-window simulation amplifies its rounding errors beyond use."""
+#: sampling steps (s) outside this range are refused: no data-acquisition system samples faster
+#: than 1 GHz, and a step of days is not a vibration record (the model's frequency grid would
+#: otherwise overflow)
+STEP_RANGE = (1e-9, 1e5)
+MAX_MAGNITUDE = 1e100
+"""Largest accepted magnitude of any number, in SI units: far beyond any quantity a test
+measures or describes, and small enough that sums of squares over any record, and the
+model's products of such values, stay finite (1e308 would overflow when squared)."""
 DEFAULT_CSV = "recording.csv"
 DEFAULT_TIME_COLUMN = "time"
 
@@ -61,6 +75,24 @@ _MEANING = {
     "column": "a CSV column name",
     "file": "the CSV file name",
     "time_column": "the CSV column holding the time in s",
+    "thermal_expansion": "alpha_T in 1/K",
+    "temperature": "T0, the beam's temperature in K",
+    "specific_heat": "c_p in J/(kg K)",
+    "thermal_diffusivity": "chi in m^2/s",
+    "thickness": "h, the beam's depth in the plane of bending, in m",
+    "material_name": '"steel" or "aluminium"',
+}
+
+# The optional [material] table (docs/format.md): what the thermoelastic damping mechanism
+# predicts its damping from. Named materials supply handbook values of the three constants
+# that depend on the material alone; temperature and thickness describe the test and are
+# always given.
+_MATERIAL_KEYS = ("thermal_expansion", "temperature", "specific_heat", "thermal_diffusivity", "thickness")
+MATERIALS = {
+    # carbon steel: k = 50 W/(m K), rho = 7850 kg/m^3 -> chi = k / (rho c_p)
+    "steel": {"thermal_expansion": 12e-6, "specific_heat": 460.0, "thermal_diffusivity": 1.4e-5},
+    # 6061-T6 aluminium: k = 167 W/(m K), rho = 2700 kg/m^3
+    "aluminium": {"thermal_expansion": 23e-6, "specific_heat": 896.0, "thermal_diffusivity": 6.9e-5},
 }
 
 
@@ -98,6 +130,21 @@ class TipBody:
 
     mass: float = 0.0
     rotary_inertia: float = 0.0
+
+
+@dataclass(frozen=True)
+class Material:
+    """The thermal constants of the optional ``[material]`` table, SI units.
+
+    thermal_expansion: alpha_T (1/K); temperature: T0 (K); specific_heat: c_p (J/(kg K));
+    thermal_diffusivity: chi (m^2/s); thickness: h (m), the depth in the plane of bending.
+    """
+
+    thermal_expansion: float
+    temperature: float
+    specific_heat: float
+    thermal_diffusivity: float
+    thickness: float
 
 
 @dataclass(frozen=True)
@@ -209,6 +256,12 @@ class Recording:
         known = ", ".join(repr(s.name) for s in self.sensors)
         raise KeyError(f"no sensor named {name!r}; this recording has {known}")
 
+    @property
+    def material(self) -> Material:
+        """The ``[material]`` table, checked (it is optional in the format and stays in ``extra``);
+        RecordingError naming the keys to add when it is missing or incomplete."""
+        return _read_material(self.extra, (self.source or Path(".")) / "beam.toml")
+
     def with_signals(self, signals) -> Recording:
         """A copy with ``signals`` (shape (n_samples, n_sensors)) in place of the measured ones."""
         return replace(self, signals=signals)
@@ -254,6 +307,7 @@ def load_recording(path: str | os.PathLike) -> Recording:
     _check_time(table, time_column, time)
     _check_start(toml_path, excitation, time)
     force = table.column(excitation.column) if excitation.kind == "force" else None
+    _check_force(table, excitation, force)
     signals = np.column_stack([table.column(s.column) for s in sensors])
     extra = {key: value for key, value in doc.items() if key not in _KNOWN_TABLES}
     return Recording(beam, tip, excitation, sensors, time, signals, force, toml_path.parent, extra)
@@ -328,7 +382,19 @@ def _number(table: dict, key: str, label: str, file: Path, default: float | None
         raise RecordingError(
             file, where, f"{table[key]!r} is not finite", f"give {key} a finite value ({_MEANING[key]})."
         )
+    if not _plausible(value):
+        raise RecordingError(
+            file, where, f"{table[key]!r} is beyond the magnitudes a recording can hold "
+            f"({MAX_MAGNITUDE:g} down to {1 / MAX_MAGNITUDE:g})",
+            f"give {key} in SI units ({_MEANING[key]}).",
+        )
     return value
+
+
+def _plausible(value) -> np.ndarray | bool:
+    """True where ``value`` is 0 or has a magnitude within [1/MAX_MAGNITUDE, MAX_MAGNITUDE]."""
+    magnitude = np.abs(value)
+    return (magnitude == 0) | ((magnitude <= MAX_MAGNITUDE) & (magnitude >= 1 / MAX_MAGNITUDE))
 
 
 def _text(table: dict, key: str, label: str, file: Path, default: str | None = None) -> str:
@@ -396,6 +462,30 @@ def _read_tip(doc: dict, file: Path) -> TipBody:
             )
     _warn_unused(table, _TIP_KEYS, "[tip]", file)
     return TipBody(**values)
+
+
+def _read_material(doc: dict, file: Path) -> Material:
+    if "material" not in doc:
+        raise RecordingError(
+            file, "[material]", "table missing (the thermoelastic mechanism needs the beam's thermal constants)",
+            f"add a [material] table with {', '.join(_MATERIAL_KEYS)}, or name = \"steel\" or \"aluminium\" "
+            "(handbook values of the first three, docs/format.md) with temperature and thickness.",
+        )
+    table = _table(doc, "material", file, required=True)
+    named = {}
+    if "name" in table:
+        value = _text(table, "name", "[material]", file)
+        if value not in MATERIALS:
+            raise RecordingError(file, "[material] .name", f"unknown material {value!r}",
+                                 f"set name to {_MEANING['material_name']}, or give every constant.")
+        named = MATERIALS[value]
+    values = {key: _number(table, key, "[material]", file, default=named.get(key)) for key in _MATERIAL_KEYS}
+    for key, value in values.items():
+        if value <= 0.0:
+            raise RecordingError(file, f"[material] .{key}", f"{value!r} is not positive",
+                                 f"give {key} a positive value ({_MEANING[key]}).")
+    _warn_unused(table, ("name", *_MATERIAL_KEYS), "[material]", file)
+    return Material(**values)
 
 
 def _read_excitation(doc: dict, file: Path, length: float) -> Excitation:
@@ -503,6 +593,17 @@ def _check_start(file: Path, excitation: Excitation, time: np.ndarray) -> None:
         )
 
 
+def _check_force(table: _CsvTable, excitation: Excitation, force: np.ndarray | None) -> None:
+    # A force recording is defined by its measured force: a channel of zeros holds no impact.
+    if force is None or np.any(force != 0.0):
+        return
+    raise RecordingError(
+        table.path, f'column "{excitation.column}"', "the force channel is zero in every sample",
+        "check that [excitation] column names the force channel and that the hammer's sensor was "
+        'connected; for an unmeasured tap use kind = "free_decay" with a start time.',
+    )
+
+
 # --------------------------------------------------------------------------- reading the CSV
 
 
@@ -530,6 +631,14 @@ class _CsvTable:
             raise RecordingError(
                 self.path, f'line {self.lines[i]}, column "{name}"', f"{cells[i].strip()!r} is {what}",
                 "replace the bad sample or trim the record so that it excludes it.",
+            )
+        bad = np.flatnonzero(np.abs(values) > MAX_MAGNITUDE)
+        if bad.size:
+            i = bad[0]
+            raise RecordingError(
+                self.path, f'line {self.lines[i]}, column "{name}"',
+                f"{cells[i].strip()!r} is beyond the magnitudes a recording can hold (up to {MAX_MAGNITUDE:g})",
+                "write the channel in SI units (m, m/s, m/s^2, N, s), and replace or trim a corrupt sample.",
             )
         return values
 
@@ -574,9 +683,10 @@ def _read_csv(path: Path) -> _CsvTable:
         raise RecordingError(
             path, "file", f"not UTF-8 text ({err.reason})", "save the CSV as UTF-8."
         ) from None
-    if len(rows) < 2:
+    if len(rows) < MIN_SAMPLES:
         raise RecordingError(
-            path, "file", f"{len(rows)} data row(s); at least 2 samples are needed",
+            path, "file", f"{len(rows)} data row(s); at least {MIN_SAMPLES} samples are needed (the "
+            "anti-alias filter's own response is longer than a shorter record)",
             "supply the full record: one header line, then one row per sample.",
         )
     return _CsvTable(path, header, rows, lines)
@@ -589,6 +699,7 @@ def _read_header(path: Path, reader) -> tuple[str, ...]:
             path, "line 1", "no header line",
             "start the file with a header naming the columns, e.g. time,accel_tip.",
         )
+    _check_delimiter(path, row)
     header = tuple(name.strip() for name in row)
     for j, name in enumerate(header):
         if name in header[:j]:
@@ -596,6 +707,23 @@ def _read_header(path: Path, reader) -> tuple[str, ...]:
                 path, f'line 1, column "{name}"', "column name used twice", "give every column its own name."
             )
     return header
+
+
+#: separators a spreadsheet or logger may have written instead of the comma
+_OTHER_DELIMITERS = {";": "semicolons (';')", "\t": "tabs", "|": "vertical bars ('|')"}
+
+
+def _check_delimiter(path: Path, header: list[str]) -> None:
+    """Refuse a header that is one cell holding another separator: the file is not comma-separated."""
+    if len(header) != 1:
+        return
+    for delimiter, name in _OTHER_DELIMITERS.items():
+        if delimiter in header[0]:
+            raise RecordingError(
+                path, "line 1", f"the columns are separated by {name}, not commas ({header[0].strip()!r})",
+                "save the file as comma-separated values with '.' as the decimal point "
+                "(in a spreadsheet: CSV, comma as field separator).",
+            )
 
 
 def _read_rows(path: Path, reader, width: int) -> tuple[list[list[str]], list[int]]:
@@ -630,6 +758,12 @@ def _check_time(table: _CsvTable, name: str, time: np.ndarray) -> None:
             "sort the rows by time and remove repeated samples.",
         )
     dt = (time[-1] - time[0]) / (time.size - 1)
+    if not STEP_RANGE[0] <= dt <= STEP_RANGE[1]:
+        raise RecordingError(
+            table.path, f'column "{name}"',
+            f"the mean sampling step {float(dt)!r} s is outside {STEP_RANGE[0]:g} to {STEP_RANGE[1]:g} s",
+            "write the time in seconds.",
+        )
     jitter = np.abs(steps - dt) / dt
     if jitter.max() > MAX_TIME_JITTER:
         # Name the worst step: a dropped sample shifts the mean step, so the first step

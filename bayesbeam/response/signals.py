@@ -81,7 +81,7 @@ class ForcePulses:
 
     ``threshold`` (N): the deviation from ``baseline`` (the channel's median, N) a pulse sample
     reaches: the larger of THRESHOLD x the peak and NOISE_MULTIPLE x ``noise_sd`` (the robust sd
-    of the channel, N).
+    of the channel, N), but at most the peak.
     """
 
     pulses: tuple[Pulse, ...]
@@ -120,7 +120,8 @@ def find_pulses(force: np.ndarray, *, threshold: float = THRESHOLD,
     if not peak > 0:
         raise ValueError("the force channel is constant: no impact to window")
     noise_sd = robust_sd(force)
-    level = max(threshold * peak, noise_multiple * noise_sd)
+    # never above the peak: a channel that is all noise still has its main impact
+    level = min(max(threshold * peak, noise_multiple * noise_sd), peak)
     above = np.flatnonzero(np.abs(deviation) >= level)
     breaks = np.flatnonzero(np.diff(above) >= GAP) + 1
     pulses = tuple(_pulse(cluster, deviation, main) for cluster in np.split(above, breaks))

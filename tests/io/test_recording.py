@@ -18,6 +18,7 @@ from bayesbeam.io import (
     load_recording,
     write_recording,
 )
+from bayesbeam.io.recording import MAX_MAGNITUDE, MIN_SAMPLES
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 EXAMPLES = sorted(p for p in (DATA / "examples").iterdir() if p.is_dir())
@@ -61,7 +62,7 @@ time_column = "time"
 test = "tiny"
 """
 DT = 1.0 / 1024  # s, exact in binary
-N = 8
+N = MIN_SAMPLES + 8  # the shortest record accepted, with room to delete a few rows
 CSV = "time,force,accel_tip,vel_mid\n" + "".join(
     f"{k * DT!r},{k % 3 - 1.0!r},{0.5 * k!r},{-0.25 * k!r}\n" for k in range(N)
 )
@@ -324,9 +325,59 @@ def test_column_missing_from_csv(tmp_path, old, new, where):
     assert "recording.csv" in err.problem
 
 
-def test_fewer_than_two_samples(tmp_path):
-    csv = "".join(CSV.splitlines(keepends=True)[:2])
-    refused(make(tmp_path, csv=csv), "recording.csv", "file")
+@pytest.mark.parametrize("rows", [1, 3, MIN_SAMPLES - 1])
+def test_too_few_samples(tmp_path, rows):
+    csv = "".join(CSV.splitlines(keepends=True)[: rows + 1])
+    err = refused(make(tmp_path, csv=csv), "recording.csv", "file")
+    assert f"{rows} data row(s)" in err.problem and str(MIN_SAMPLES) in err.problem
+
+
+def test_fewest_samples_accepted(tmp_path):
+    csv = "".join(CSV.splitlines(keepends=True)[: MIN_SAMPLES + 1])
+    assert load_recording(make(tmp_path, csv=csv)).n_samples == MIN_SAMPLES
+
+
+@pytest.mark.parametrize("value", ["1e308", "-1.7e308", repr(10 * MAX_MAGNITUDE)])
+def test_overflowing_cell(tmp_path, value):
+    """Finite, but its square (and any sum of squares over the record) overflows."""
+    err = refused(make(tmp_path, csv=csv_cell(9, 2, value)), "recording.csv", 'line 9, column "accel_tip"')
+    assert value in err.problem
+
+
+def test_largest_magnitude_accepted(tmp_path):
+    rec = load_recording(make(tmp_path, csv=csv_cell(9, 2, repr(MAX_MAGNITUDE))))
+    assert rec.signals[7, 0] == MAX_MAGNITUDE
+
+
+def test_overflowing_toml_value(tmp_path):
+    refused(make(tmp_path, edit(BEAM_TOML, "modulus = 2.84e10", "modulus = 1e308")), "beam.toml", "[beam] .modulus")
+
+
+@pytest.mark.parametrize("step", [1e-12, 1e6])
+def test_sampling_step_in_the_wrong_unit(tmp_path, step):
+    csv = "time,force,accel_tip,vel_mid\n" + "".join(f"{k * step!r},{k % 3 - 1.0},0.5,0.25\n" for k in range(N))
+    err = refused(make(tmp_path, csv=csv), "recording.csv", 'column "time"')
+    assert "seconds" in err.fix
+
+
+def test_all_zero_force_channel(tmp_path):
+    lines = CSV.splitlines()
+    csv = "\n".join([lines[0]] + [",".join([c[0], "0.0", *c[2:]]) for c in (line.split(",") for line in lines[1:])])
+    err = refused(make(tmp_path, csv=csv + "\n"), "recording.csv", 'column "force"')
+    assert "zero in every sample" in err.problem and "free_decay" in err.fix
+
+
+@pytest.mark.parametrize("delimiter, name", [(";", "semicolons"), ("\t", "tabs")])
+def test_wrong_delimiter_is_named(tmp_path, delimiter, name):
+    err = refused(make(tmp_path, csv=CSV.replace(",", delimiter)), "recording.csv", "line 1")
+    assert name in err.problem and "comma-separated" in err.fix
+
+
+def test_semicolons_with_decimal_commas_are_named(tmp_path):
+    """The European spreadsheet export: ';' between cells and ',' as the decimal point."""
+    csv = CSV.replace(",", ";").replace(".", ",")
+    err = refused(make(tmp_path, csv=csv), "recording.csv", "line 1")
+    assert "semicolons" in err.problem
 
 
 def test_empty_csv(tmp_path):
@@ -404,19 +455,19 @@ def test_round_trip(tmp_path, directory):
 
 
 def small_recording(**changes) -> Recording:
-    n = 5
-    fields = dict(
-        beam=Beam(0.5, 2700.0, 7.5e-5, 5.625e-11, 7e10),
-        tip=TipBody(),
-        excitation=Excitation("release", tip_load=0.4),
-        sensors=(Sensor("time", 0.5, "displacement", "time"),),
-        time=np.arange(n) / 4096.0,
-        signals=np.linspace(0.0, 1e-3, n)[:, None] / 3.0,
-        extra={
+    n = MIN_SAMPLES
+    fields = {
+        "beam": Beam(0.5, 2700.0, 7.5e-5, 5.625e-11, 7e10),
+        "tip": TipBody(),
+        "excitation": Excitation("release", tip_load=0.4),
+        "sensors": (Sensor("time", 0.5, "displacement", "time"),),
+        "time": np.arange(n) / 4096.0,
+        "signals": np.linspace(0.0, 1e-3, n)[:, None] / 3.0,
+        "extra": {
             "title": 'say "hi"\n\tthere \\ é \x7f',
             "notes": {"a": [1, 2.5, "x"], "when": date(2024, 5, 1), "ok": True, "sub": {"k y": -0.1}},
         },
-    )
+    }
     return Recording(**(fields | changes))
 
 
@@ -463,9 +514,27 @@ def test_with_signals_checks_shape():
 
 def test_force_present_exactly_for_kind_force():
     with pytest.raises(ValueError, match="force"):
-        small_recording(force=np.zeros(5))
+        small_recording(force=np.zeros(MIN_SAMPLES))
 
 
 def test_sensor_index_lists_names():
     with pytest.raises(KeyError, match="'time'"):
         small_recording().sensor_index("tip")
+
+
+# --------------------------------------------------------------------------- the record and the band
+
+
+def test_too_few_samples_for_the_requested_band(tmp_path):
+    """264 samples at 1024 Hz: a fit below 20 Hz decimates by 20 (0.40 fs / 20 Hz), which leaves
+    13 samples, fewer than the 128 the low-pass disturbs at the end. Refused naming the recording
+    and the flags that fix it; at the full band the same record is accepted."""
+    from bayesbeam.inference.fit import FitConfig, prepare
+
+    rec = load_recording(make(tmp_path))
+    with pytest.raises(RecordingError) as info:
+        prepare(rec, "q1", FitConfig(max_frequency=20.0), 4)
+    err = info.value
+    assert Path(err.file) == tmp_path / "rec" and "below 20 Hz" in err.problem
+    assert "--max-frequency" in err.fix and "--start/--stop" in err.fix
+    assert prepare(rec, "q1", FitConfig(max_frequency=380.0), 4).decimation == 1
