@@ -15,6 +15,13 @@ class Component:
     #: parameters with a default value, not sampled unless the user asks
     defaults: Mapping[str, float] = {}
     description: str = ""
+    #: names of the components this one needs in the same model (a root dashpot needs the root spring)
+    requires: tuple[str, ...] = ()
+
+    def bind(self, recording) -> Component:
+        """This component for one recording: itself, or a copy holding what it reads from the
+        recording's description (the thermoelastic mechanism's [material] constants)."""
+        return self
 
     def check(self, values: Mapping[str, float]) -> None:
         """Raise ValueError if the values are not physical (default: finite, or an infinite

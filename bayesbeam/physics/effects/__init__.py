@@ -8,11 +8,12 @@ from bayesbeam.physics.effects.dry_friction import DryFriction
 from bayesbeam.physics.effects.measurement_delay import MeasurementDelay
 from bayesbeam.physics.effects.quadratic_drag import QuadraticDrag
 from bayesbeam.physics.effects.root_compliance import RootCompliance
+from bayesbeam.physics.effects.root_damping import RootDamping
 from bayesbeam.physics.effects.sensor_mass import SensorMass
 
 REGISTRY: dict[str, Effect] = {
     e.name: e for e in (RootCompliance(), SensorMass(), AxialLoad(), MeasurementDelay(),
-                        QuadraticDrag(), DryFriction())
+                        QuadraticDrag(), DryFriction(), RootDamping())
 }
 
 

@@ -4,7 +4,7 @@ An effect is something real that a damping model leaves out: a compliant clamp, 
 own mass, an axial load, amplitude-dependent drag or friction, a delay in the acquisition.
 Like a damping mechanism it has named parameters (SI units) and adds to the Galerkin system:
 
-* linear effects add to the mass or stiffness matrix, change the root condition of the basis,
+* linear effects add to the mass, damping or stiffness matrix, change the root condition of the basis,
   or delay the response channels; the exact frequency-domain solver handles them;
 * nonlinear effects add a velocity-dependent force that needs a time integrator
   (:mod:`bayesbeam.response.nonlinear`).
@@ -45,6 +45,10 @@ class Effect(Component):
 
     def stiffness(self, ops: BeamOperators, values, setup: Setup) -> np.ndarray | None:
         """Added stiffness matrix (N/m in generalised coordinates), or None."""
+        return None
+
+    def damping(self, ops: BeamOperators, values, setup: Setup) -> np.ndarray | None:
+        """Added damping matrix (N s/m in generalised coordinates), or None."""
         return None
 
     def reference(self, values) -> dict[str, float]:

@@ -4,12 +4,16 @@ Adding a mechanism touches its module, one line of ``REGISTRY`` and its tests.
 """
 from bayesbeam.physics.mechanisms.air import Air
 from bayesbeam.physics.mechanisms.base import Mechanism
+from bayesbeam.physics.mechanisms.exponential import Exponential
+from bayesbeam.physics.mechanisms.fractional import Fractional
 from bayesbeam.physics.mechanisms.spatial_hysteresis import SpatialHysteresis
 from bayesbeam.physics.mechanisms.strain_rate import StrainRate
+from bayesbeam.physics.mechanisms.thermoelastic import Thermoelastic
 from bayesbeam.physics.mechanisms.time_hysteresis import TimeHysteresis
 
 REGISTRY: dict[str, Mechanism] = {
-    m.name: m for m in (Air(), StrainRate(), TimeHysteresis(), SpatialHysteresis())
+    m.name: m for m in (Air(), StrainRate(), TimeHysteresis(), SpatialHysteresis(),
+                        Fractional(), Exponential(), Thermoelastic())
 }
 
 #: the paper's parameter vectors q1, q2, q3 (eqs. 16-18)
