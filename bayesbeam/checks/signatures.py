@@ -91,8 +91,9 @@ PHYSICS = {
     "measurement_delay": "every response channel lags the motion by tau: a phase -2 pi f tau at every mode, linear "
                          "in frequency, with no change of frequency, damping or amplitude",
     "root_damping": "a rotational dashpot at a compliant clamp adds the damping c_theta phi_m'(0)^2 / (2 omega_m) to "
-                    "mode m (mass-normalised shape) and, to first order, no frequency shift: the low modes, whose "
-                    "root slope is largest against their energy, are damped most",
+                    "mode m (mass-normalised shape) and, to first order, no frequency shift: at a stiff clamp it "
+                    "grows with the mode like Kelvin-Voigt damping, at a soft one (k_theta l/EI <~ 1) mode 1 is "
+                    "damped most",
     "quadratic_drag": "air drag c_q |u_t| u_t dissipates more at large amplitude: the damping falls as the vibration "
                       "decays (decay rate larger at the start than at the end)",
     "dry_friction": "Coulomb friction at the tip takes a fixed amplitude per cycle (a straight-line envelope): "
