@@ -1,0 +1,188 @@
+r"""The beam's linear state-space model, assembled from :mod:`tests.reference.fem`.
+
+.. math:: M\ddot w + D\dot w + K w - K_0\int_0^\infty g(\sigma)\,w(t-\sigma)\,d\sigma = b\,f(t)
+
+with :math:`K = EI\,K_0 + P\,G_0 + k_\theta e e^T`, :math:`D = \gamma M_0 + c_dI\,K_0 + D_{sh}(a, b)`,
+:math:`M = \rho A\,M_0` + tip body + sensor mass, and b the load row at the force's position.
+
+Two first-order forms, both integrated exactly by :mod:`tests.reference.integrate`:
+
+* without memory, the full finite-element state :math:`x = (w, \dot w)` (one block);
+* with time hysteresis, the undamped modes of (K, M) below a cut-off, each mode a block
+  :math:`(q, \dot q, \zeta_{lo}, \zeta_1, \dots)` carrying the kernel's sum of exponentials
+  (:mod:`tests.reference.memory`). This needs D and :math:`K_0` diagonal in those modes (true
+  for time hysteresis alone, with strain rate, a sensor mass or a delay); otherwise it refuses.
+
+A block is (A, B, C, F): :math:`\dot x = A x + B f`, outputs :math:`y = C x + F f` where each
+sensor row reads the deflection, velocity or acceleration (:math:`C = S_v A`, :math:`F = S_v B`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import linalg
+
+from .fem import Mesh
+from .memory import SumOfExponentials
+
+DAMPING_KEYS = ("gamma", "cdI", "alpha", "beta", "r", "a", "b")
+EFFECT_KEYS = ("k_theta", "m_s", "P", "tau")
+ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
+
+
+@dataclass(frozen=True)
+class BeamCase:
+    """Everything the simulator needs, SI units.
+
+    length l (m), rho_a (kg/m), EI (N m^2), m_T (kg), J (kg m^2); ``damping`` with the paper's
+    names (gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, a N s, b m); ``effects``:
+    k_theta (N m/rad, root spring), m_s (kg, point mass at the first sensor), P (N, axial load,
+    tension positive), tau (s, delay of the response channels). ``sensors``: (location m, quantity).
+    """
+
+    length: float
+    rho_a: float
+    EI: float
+    m_T: float = 0.0
+    J: float = 0.0
+    damping: dict = field(default_factory=dict)
+    effects: dict = field(default_factory=dict)
+    sensors: tuple = ((None, "acceleration"),)
+
+    def __post_init__(self):
+        for name, given, known in (("damping", self.damping, DAMPING_KEYS), ("effects", self.effects, EFFECT_KEYS)):
+            unknown = set(given) - set(known)
+            if unknown:
+                raise ValueError(f"unknown {name} parameter(s) {sorted(unknown)}; known: {', '.join(known)}")
+        if ("alpha" in self.damping) != ("beta" in self.damping) or ("a" in self.damping) != ("b" in self.damping):
+            raise ValueError("time hysteresis needs both alpha and beta, spatial hysteresis both a and b")
+        if self.damping.get("r", np.inf) != np.inf:
+            raise ValueError("the reference simulates time hysteresis with infinite memory only: drop r")
+        located = tuple((self.length if x is None else float(x), q) for x, q in self.sensors)
+        object.__setattr__(self, "sensors", located)
+        for _, quantity in located:
+            if quantity not in ORDERS:
+                raise ValueError(f"unknown sensor quantity {quantity!r}; use one of {', '.join(ORDERS)}")
+
+    @property
+    def has_memory(self) -> bool:
+        return "alpha" in self.damping
+
+    def mesh(self, n_elements: int) -> Mesh:
+        return Mesh(self.length, n_elements, "spring" if "k_theta" in self.effects else "clamped")
+
+
+@dataclass(frozen=True)
+class Matrices:
+    """Mass, damping, stiffness (N/m, N s/m, kg in the dofs), K_0 and the mesh."""
+
+    mesh: Mesh
+    M: np.ndarray
+    D: np.ndarray
+    K: np.ndarray
+    K0: np.ndarray
+
+
+def matrices(case: BeamCase, n_elements: int) -> Matrices:
+    """The finite-element matrices of ``case`` on ``n_elements`` elements."""
+    mesh, d, e = case.mesh(n_elements), case.damping, case.effects
+    M = case.rho_a * mesh.M0 + case.m_T * mesh.point(case.length) + case.J * mesh.point(case.length, 1)
+    if "m_s" in e:
+        M = M + e["m_s"] * mesh.point(case.sensors[0][0])
+    K = case.EI * mesh.K0 + e.get("P", 0.0) * mesh.G0
+    if "k_theta" in e:
+        K = K + e["k_theta"] * mesh.root_spring()
+    D = d.get("gamma", 0.0) * mesh.M0 + d.get("cdI", 0.0) * mesh.K0
+    if "a" in d:
+        D = D + mesh.spatial_hysteresis(d["a"], d["b"])
+    return Matrices(mesh, M, D, K, mesh.K0)
+
+
+@dataclass(frozen=True)
+class Blocks:
+    """Independent linear blocks, stacked: A (nb, ns, ns), B (nb, ns), C (nb, n_out, ns); y = sum C x + F f."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    F: np.ndarray
+
+    def poles(self) -> np.ndarray:
+        """Eigenvalues of every block (1/s), sorted by |Im| then Re."""
+        lam = np.concatenate([linalg.eigvals(a) for a in self.A])
+        return lam[np.lexsort((lam.real, np.abs(lam.imag)))]
+
+    def equilibrium(self, load: float) -> np.ndarray:
+        """The resting state (nb, ns) under a constant input ``load``: A x + B load = 0."""
+        return np.stack([-np.linalg.solve(a, b * load) for a, b in zip(self.A, self.B)])
+
+
+def _readout(case: BeamCase, mesh: Mesh, A: np.ndarray, B: np.ndarray, disp: np.ndarray, vel: np.ndarray):
+    """Sensor matrices C (n_out, ns), F (n_out,) from state->deflection and state->velocity maps."""
+    rows = mesh.rows([x for x, _ in case.sensors])
+    C, F = [], []
+    for r, (_, quantity) in zip(rows, case.sensors):
+        order = ORDERS[quantity]
+        C.append(r @ disp if order == 0 else r @ vel if order == 1 else r @ vel @ A)
+        F.append(0.0 if order < 2 else float(r @ vel @ B))
+    return np.array(C), np.array(F)
+
+
+def full_blocks(case: BeamCase, mats: Matrices, load_at: float) -> Blocks:
+    """One block, the whole finite-element state (w, w_t); input: a unit force at ``load_at`` (m)."""
+    n = mats.mesh.n_dof
+    minv_k, minv_d = np.linalg.solve(mats.M, mats.K), np.linalg.solve(mats.M, mats.D)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-minv_k, -minv_d]])
+    B = np.concatenate([np.zeros(n), np.linalg.solve(mats.M, mats.mesh.rows([load_at])[0])])
+    disp, vel = np.eye(n, 2 * n), np.eye(n, 2 * n, n)
+    C, F = _readout(case, mats.mesh, A, B, disp, vel)
+    return Blocks(A[None], B[None], C[None], F)
+
+
+def undamped_modes(mats: Matrices) -> tuple[np.ndarray, np.ndarray]:
+    """(omega (rad/s), mass-normalised mode shapes (n_dof, n_modes)) of (K, M), ascending."""
+    lam, phi = linalg.eigh(mats.K, mats.M)
+    return np.sqrt(lam), phi
+
+
+def _diagonal(matrix: np.ndarray, what: str) -> np.ndarray:
+    diag = np.diag(matrix)
+    off = matrix - np.diag(diag)
+    if np.max(np.abs(off), initial=0.0) > 1e-8 * max(np.max(np.abs(diag)), 1e-300):
+        raise ValueError(f"{what} couples the undamped modes, which the reference's time-hysteresis blocks cannot "
+                         "carry. Fix: combine time hysteresis only with strain rate, a sensor mass or a delay "
+                         "(or air without a tip body).")
+    return diag
+
+
+def modal_blocks(case: BeamCase, mats: Matrices, load_at: float, omega_cut: float, du: float = 0.5) -> Blocks:
+    """One block per undamped mode below ``omega_cut`` (rad/s), with the memory's exponentials."""
+    omega, phi = undamped_modes(mats)
+    keep = omega <= omega_cut
+    omega, phi = omega[keep], phi[:, keep]
+    damping = _diagonal(phi.T @ mats.D @ phi, "the damping")
+    curvature = _diagonal(phi.T @ mats.K0 @ phi, "the curvature stiffness K_0")
+    alpha, beta = case.damping.get("alpha", 0.0), case.damping.get("beta", 1.0)
+    soe = SumOfExponentials.covering(beta, omega[-1], du)
+    kappa0, kappa1 = soe.kappa
+    rates = np.concatenate([[beta], beta + soe.rates])
+    weights = np.concatenate([[soe.low_weight], soe.weights])
+    ns = 2 + rates.size
+    load = phi.T @ mats.mesh.rows([load_at])[0]
+    blocks = []
+    for k in range(omega.size):
+        memory = alpha * curvature[k]
+        A = np.zeros((ns, ns))
+        A[0, 1] = 1.0
+        A[1, 0] = -(omega[k] ** 2 - memory * (kappa0 - kappa1 * beta))
+        A[1, 1] = -(damping[k] + memory * kappa1)
+        A[1, 2:] = memory * weights
+        A[2:, 0] = 1.0
+        A[2:, 2:] = -np.diag(rates)
+        B = np.zeros(ns)
+        B[1] = load[k]
+        disp, vel = np.outer(phi[:, k], np.eye(1, ns, 0)), np.outer(phi[:, k], np.eye(1, ns, 1))
+        blocks.append((A, B, *_readout(case, mats.mesh, A, B, disp, vel)))
+    A, B, C, F = (np.stack(parts) for parts in zip(*blocks))
+    return Blocks(A, B, C, F.sum(axis=0))
