@@ -276,9 +276,12 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
         raise ValueError(f"--resume: the saved chain has {backend.shape} (walkers, parameters), this fit "
                          f"needs {(n_walkers, ndim)}; rerun without --resume")
     started = time.perf_counter()
-    previous_tau, converged, reason = None, False, f"reached max_steps = {max_steps}"
+    previous_tau = None if state is not None else _tau_at_last_boundary(sampler, chunk)
+    converged, reason = False, f"reached max_steps = {max_steps}"
     while sampler.iteration < max_steps:
-        steps = min(chunk, max_steps - sampler.iteration)
+        # chunks end at multiples of ``chunk``, so a resumed run judges convergence where an
+        # uninterrupted one does (the backend also restores emcee's random state: same draws)
+        steps = min(chunk - sampler.iteration % chunk, max_steps - sampler.iteration)
         sampler.run_mcmc(state, steps, progress=False)
         state = None
         tau = sampler.get_autocorr_time(tol=0)
@@ -297,6 +300,15 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
     lp = sampler.get_log_prob(discard=burn, thin=thin)
     return Chains(np.swapaxes(chain, 0, 1), lp.T, tau, float(np.mean(sampler.acceptance_fraction)),
                   sampler.iteration, burn, thin, converged, reason, time.perf_counter() - started)
+
+
+def _tau_at_last_boundary(sampler, chunk: int):
+    """tau of a resumed chain's steps up to its last multiple of ``chunk``: the estimate an
+    uninterrupted run made there last (None before the first chunk ended)."""
+    steps = sampler.iteration - sampler.iteration % chunk
+    if steps == 0:
+        return None
+    return emcee.autocorr.integrated_time(sampler.get_chain()[:steps], tol=0)
 
 
 def burn_in(tau_max: float, n_steps: int) -> int:
