@@ -33,6 +33,11 @@ from bayesbeam.inference.screens import bic, laplace_log_evidence, pointwise_mat
 
 #: the paper's three models plus the single mechanisms
 DEFAULT_MODELS = ("q1", "q2", "q3", "air", "strain_rate")
+#: the damping models of the literature since the paper, each on its own (docs/comparison.md);
+#: thermoelastic needs the recording's [material] table
+LITERATURE_MODELS = ("fractional", "exponential", "thermoelastic", "root_compliance+root_damping")
+#: named sets of models that ``--models`` accepts beside model names
+MODEL_SETS = {"paper": DEFAULT_MODELS, "literature": LITERATURE_MODELS, "all": DEFAULT_MODELS + LITERATURE_MODELS}
 #: Kass & Raftery (1995) on the 2 ln B scale (2, 6, 10), as ln B in nats
 KASS_RAFTERY = ((5.0, "very strong"), (3.0, "strong"), (1.0, "positive"), (0.0, "not worth more than a bare mention"))
 #: a model's evidence has not settled when its SMC repeats spread by more than this (nats; the
@@ -109,9 +114,18 @@ def check_job(args):
 
 
 # ---------------------------------------------------------------------------- the comparison
+def expand_model_sets(names) -> list[str]:
+    """Model names with each named set of :data:`MODEL_SETS` replaced by its models, repeats dropped.
+
+    >>> expand_model_sets(["literature", "q2", "fractional"])
+    ['fractional', 'exponential', 'thermoelastic', 'root_compliance+root_damping', 'q2']
+    """
+    return list(dict.fromkeys(m for name in names for m in MODEL_SETS.get(name, (name,))))
+
+
 def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, executor=None,
             log=None, starts: dict | None = None) -> tuple[dict, dict]:
-    """Compare ``models`` on ``rec``: ``(results, summary)``.
+    """Compare ``models`` (names, or named sets of :data:`MODEL_SETS`) on ``rec``: ``(results, summary)``.
 
     ``results`` maps each model to its :class:`ModelResult`; ``summary`` is the JSON-ready
     comparison (see :func:`summarise`). ``log``: a callable taking a line of progress, or None.
@@ -120,7 +134,7 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     """
     config = config or CompareConfig()
     executor = executor or SerialExecutor()
-    models = list(dict.fromkeys(models))
+    models = expand_model_sets(models)
     seeds = np.random.SeedSequence(config.seed).spawn(3)
     started = time.perf_counter()
     say = log or (lambda _text: None)

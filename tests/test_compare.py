@@ -12,7 +12,14 @@ evidence.
 import numpy as np
 import pytest
 
-from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare, strength
+from bayesbeam.compare import (
+    DEFAULT_MODELS,
+    LITERATURE_MODELS,
+    CompareConfig,
+    compare,
+    expand_model_sets,
+    strength,
+)
 from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig
 from tests.inference import cases
@@ -147,3 +154,25 @@ def test_evidence_that_has_not_settled_gets_a_second_pass_from_its_posterior_par
     assert "q3" in said[0] and "q1" not in said[0]
     assert cmp.settle({"q1": first["q1"]}, posteriors, config, np.random.SeedSequence(1), SerialExecutor(),
                       said.append) == {"q1": first["q1"]}
+
+
+def test_named_model_sets_expand_and_every_literature_model_simulates():
+    """``paper`` is the default set, ``literature`` the newer mechanisms (the root dashpot with its
+    spring), ``all`` both; names repeat once. Each literature model builds on a recording with a
+    [material] table and simulates finite signals at its default priors' medians."""
+    from dataclasses import replace
+
+    from bayesbeam.inference.priors import default_priors
+    from bayesbeam.model import BeamModel
+    from tests.physics.effects.helpers import recording
+
+    assert expand_model_sets(["paper"]) == list(DEFAULT_MODELS)
+    assert expand_model_sets(["literature", "fractional"]) == list(LITERATURE_MODELS)
+    assert expand_model_sets(["all"]) == list(DEFAULT_MODELS + LITERATURE_MODELS)
+    rec = replace(recording("force", duration=0.3),
+                  extra={"material": {"name": "steel", "temperature": 293.0, "thickness": 2e-3}})
+    for spec in LITERATURE_MODELS:
+        model = BeamModel(rec, spec, 6)
+        priors = default_priors(rec.beam, model.parameter_names, {})
+        values = {n: float(p.to_value(p.median())) for n, p in priors.items()}
+        assert np.all(np.isfinite(model.simulate(values))), spec

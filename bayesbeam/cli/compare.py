@@ -19,7 +19,8 @@ def add_arguments(p) -> None:
 def add_comparison_options(p, default_models) -> None:
     """Options shared with ``bayesbeam batch``."""
     p.add_argument("--models", default=",".join(default_models),
-                   help=f"comma-separated presets or '+'-joined mechanisms (default {','.join(default_models)})")
+                   help=f"comma-separated presets or '+'-joined mechanisms, or a named set: paper, literature, "
+                        f"all (default {','.join(default_models)})")
     p.add_argument("--effect", action="append", metavar="EFFECT", help="add a missing-physics effect to every model")
     add_evidence_options(p)
 
@@ -59,7 +60,9 @@ def comparison_config(args):
 
 def model_list(text: str, option: str = "--models") -> list[str]:
     """Model names from a comma-separated list, each checked (presets, mechanisms, effects)."""
-    models = [m.strip() for m in text.split(",") if m.strip()]
+    from bayesbeam.compare import expand_model_sets
+
+    models = expand_model_sets(m.strip() for m in text.split(",") if m.strip())
     if not models:
         raise UsageError(f"{option} is empty: give e.g. {option} q1,q2,q3")
     for m in models:

@@ -20,12 +20,30 @@ P              N               uniform [-0.5 P_cr, 10 P_cr]                axial
 c_q            N s^2/m^3       log-uniform [1e-4, 1e3]                     quadratic drag
 F_c            N               log-uniform [1e-5, 10]                      dry friction
 tau            s               uniform [0, 0.005]                          acquisition delay
+c_f            N m^2 s^nu      log-uniform [1e-8 EI_0, 1 EI_0] (x 1 s^nu)  fractional strength
+nu             -               uniform [0.01, 0.99]                        fractional order
+c_e            N m^2 s         log-uniform [1e-10, 1e-1]                   as cdI (its mu -> inf limit)
+mu             1/s             log-uniform [1, 1e5]                        relaxation rate
+zener_scale    -               log-normal, median 1, sd(log) 0.5           Zener's prediction
+c_theta        N m s/rad       log-uniform [1e-6, 10] EI_0/l (x 1 s)       root dashpot
 sigma_<s>      sensor units    log-uniform [1e-6, 10] x channel RMS        noise sd per channel
 phi_<s>        -               uniform [-0.99, 0.99]                       AR(1) coefficient
 =============  ==============  ==========================================  ======================
 
 P_cr = pi^2 EI_0 / (4 l^2) is the cantilever's Euler buckling load. Outside its support a prior
 returns -inf; it never raises inside the sampler.
+
+Why the literature mechanisms' priors: a fractional Kelvin-Voigt beam's loss factor is about
+(c_f/EI) omega^nu sin(nu pi/2), so c_f/EI_0 in [1e-8, 1] spans loss factors of 1e-8 to 1 at 1 rad/s
+whatever nu, and nu is uniform inside the open interval the mechanism admits. The exponential
+kernel tends to Kelvin-Voigt with cdI = c_e as mu -> inf, so c_e has cdI's prior and the two are
+compared on equal terms; mu runs from below a beam's fundamental (1/s) to far above its band
+(1e5 1/s, the viscous limit). The thermoelastic scale is 1 where Zener's theory and the handbook
+constants hold; sd(log) 0.5 allows a factor 1.6 either way at one sd (constants, the single
+thermal mode, the temperature). The root dashpot's c_theta / k_theta is the clamp's relaxation
+time; c_theta l / EI_0 in [1e-6, 10] s spans modal damping from negligible to tens of per cent at a
+compliant clamp (k_theta near EI_0/l); at a nearly rigid clamp the root hardly turns, and no
+dashpot there damps much.
 
 Overrides in a fit TOML file, one table per parameter::
 
@@ -134,6 +152,12 @@ DEFAULTS: dict[str, tuple[str, tuple[float, str], tuple[float, str]]] = {
     "c_q": ("loguniform", (1e-4, ""), (1e3, "")),
     "F_c": ("loguniform", (1e-5, ""), (10.0, "")),
     "tau": ("uniform", (0.0, ""), (0.005, "")),
+    "c_f": ("loguniform", (1e-8, "EI_0"), (1.0, "EI_0")),
+    "nu": ("uniform", (0.01, ""), (0.99, "")),
+    "c_e": ("loguniform", (1e-10, ""), (1e-1, "")),
+    "mu": ("loguniform", (1.0, ""), (1e5, "")),
+    "zener_scale": ("lognormal", (1.0, ""), (0.5, "")),
+    "c_theta": ("loguniform", (1e-6, "EI_0/l"), (10.0, "EI_0/l")),
 }
 #: the noise parameters' defaults, per channel <s>: sigma_<s> scales with the channel's RMS
 NOISE_DEFAULTS: dict[str, tuple[str, tuple[float, str], tuple[float, str]]] = {

@@ -8,6 +8,7 @@ from bayesbeam.inference.fit import prepare
 from bayesbeam.inference.priors import Prior, default_priors, prior_from_table
 from bayesbeam.model import BeamModel
 from bayesbeam.physics.effects import REGISTRY as EFFECTS
+from bayesbeam.physics.mechanisms import REGISTRY as MECHANISMS
 from tests.inference import cases
 
 EXAMPLES = [Prior("lognormal", 44.28, 0.25), Prior("lognormal", 3e-3, 1.5), Prior("loguniform", 1e-5, 1e2),
@@ -81,18 +82,16 @@ def test_draws_lie_in_the_support_with_the_prior_median(prior):
 
 # ---------------------------------------------------------------------------- defaults
 def all_parameter_names():
-    """Every sampled parameter of q1, q2, q3 and of each catalogue effect (on top of q1)."""
-    rec = cases.base_recording()
-    names = set()
-    for preset in ("q1", "q2", "q3"):
-        names.update(BeamModel.from_recording(rec, preset, 4).parameter_names)
-    for effect in EFFECTS:
-        names.update(BeamModel.from_recording(rec, "q1", 4, effects=(effect,)).parameter_names)
+    """Every sampled parameter of a model of each registered mechanism and catalogue effect (some
+    need another component beside them, or a [material] table: their parameters are read directly)."""
+    names = set(BeamModel.from_recording(cases.base_recording(), "q1", 4).parameter_names)
+    for component in (*MECHANISMS.values(), *EFFECTS.values()):
+        names.update(p for p in component.parameters if p not in component.defaults)
     return sorted(names)
 
 
 def test_every_parameter_of_the_presets_and_effects_has_a_default_prior():
-    """default_priors covers q1/q2/q3 and the effects, plus a sigma_<sensor> per channel; each default
+    """default_priors covers every mechanism and effect, plus a sigma_<sensor> per channel; each default
     is a proper density (integral 1 within 1e-9) that gives positive physical values where the
     parameter must be positive."""
     names = all_parameter_names()
