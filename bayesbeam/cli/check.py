@@ -1,0 +1,39 @@
+"""``bayesbeam check``: validate a recording and say what it holds before anything is fitted."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from bayesbeam import __version__
+from bayesbeam.checks.survey import report_lines, survey
+from bayesbeam.cli.common import output_folder
+from bayesbeam.io import load_recording
+from bayesbeam.io.atomic import write_text
+from bayesbeam.report.quicklook import save_quicklook
+
+HELP = ("validate a recording; print what it read (beam, tip body, excitation, sensors, sampling) and what "
+        "it finds (force pulses, noise floors, spectral peaks against the nominal modes, mains lines, "
+        "clipping, a suggested --max-frequency and window); write OUT/check.json and OUT/quicklook.png")
+
+
+def add_arguments(p) -> None:
+    p.add_argument("recording", help="recording directory (beam.toml + recording.csv)")
+    p.add_argument("--out", metavar="DIR",
+                   help="output directory for check.json and quicklook.png (default: check_<recording folder name>)")
+    p.add_argument("--overwrite", action="store_true",
+                   help="write into a non-empty OUT, replacing the files this command writes (other files stay)")
+
+
+def run(args) -> int:
+    rec = load_recording(args.recording)
+    if args.out is None:
+        args.out = f"check_{Path(rec.source).resolve().name}"
+    out = output_folder(args)
+    found = survey(rec)
+    out.mkdir(parents=True, exist_ok=True)
+    summary = {"bayesbeam": __version__, **found.summary}
+    json_path = write_text(out / "check.json", json.dumps(summary, indent=2) + "\n")
+    png_path = save_quicklook(rec, found, out / "quicklook.png")
+    print("\n".join(report_lines(found.summary)))
+    print(f"wrote {json_path}\nwrote {png_path}")
+    return 0
