@@ -75,8 +75,23 @@ class Numerics:
     du: float = 0.5
 
 
+_CLEAN: dict[str, tuple] = {}
+
+
 def simulate(case: BeamCase, excitation, fs: float, n: int, numerics: Numerics = Numerics()):
-    """Clean recorded signals: (force (n,) N or None, responses (n, n_sensors)) sampled at k / fs."""
+    """Clean recorded signals: (force (n,) N or None, responses (n, n_sensors)) sampled at k / fs.
+
+    Remembered for the session (keyed by the inputs' repr), so that repeated noise draws of one
+    test cost one simulation.
+    """
+    key = repr((case, excitation, fs, n, numerics))
+    if key not in _CLEAN:
+        _CLEAN[key] = _simulate(case, excitation, fs, n, numerics)
+    force, signals = _CLEAN[key]
+    return (None if force is None else force.copy()), signals.copy()
+
+
+def _simulate(case: BeamCase, excitation, fs: float, n: int, numerics: Numerics):
     daq = AntiAlias(fs, numerics.oversample)
     h = 1.0 / (fs * numerics.oversample)
     fine = (np.arange((n - 1) * numerics.oversample + 2 * daq.half + 1) - daq.half) * h
