@@ -5,16 +5,17 @@ import pytest
 
 from bayesbeam.physics.mechanisms import Exponential
 from bayesbeam.physics.mechanisms.exponential import exponential_transform
-from bayesbeam.response.linear import FrequencyGrid, force_response
-from bayesbeam.response.system import SecondOrderSystem
-from tests.galerkin_reference import EI, gaussian, modal, paper_operators
+from tests.galerkin_reference import modal
 from tests.physics.mechanisms.hereditary_checks import (
+    EI,
     PAPER_EI,
+    PulseCase,
     bare_model,
     damping_ratio,
     kramers_kronig_real,
     modes_and_poles,
     oscillatory_root,
+    relative_rms,
     single_pole_response,
 )
 
@@ -70,28 +71,14 @@ def test_refuses_a_zero_rate():
 
 def test_time_response_matches_internal_variable_integration():
     """force_response (frequency domain, G(s) = -c_e mu s/(s + mu)) against the exact time
-    stepping of the internal-variable form (tests/physics/mechanisms/hereditary_checks.py) on the
-    paper beam (N = 6), c_e = 5e-3 N m^2 s, mu = 300 1/s, a Gaussian force pulse (std 4 samples),
-    1 s at 256 Hz, tip displacement: 1e-7 relative RMS, the FFT solver's wrap-around and round-off
+    stepping of the internal-variable form (hereditary_checks.single_pole_response) on the pulse
+    case (hereditary_checks.PulseCase), c_e = 5e-3 N m^2 s, mu = 300 1/s: 1e-7 relative RMS, the FFT solver's wrap-around and round-off
     level (e^-18 = 1.5e-8, amplified by the exponential window; measured 4.4e-9). The memory
     changes the response by 1.4 % (1.4e5 times the bound)."""
-    ops = paper_operators(6)
+    case = PulseCase()
     c_e, mu = 5e-3, 300.0
-    fs, n = 256.0, 256
-    dt = 1 / fs
-    std, centre = 4 * dt, 40 * dt
-    load = ops.rows([0.75])[0]
-    t = dt * np.arange(n)
-
-    def fft_solution(c):
-        system = SecondOrderSystem(ops.M, 0 * ops.M, EI * ops.K0,
-                                   Exponential().relaxation({"c_e": c, "mu": mu}), ops.K0)
-        return force_response(system, FrequencyGrid(n, dt), ops.tip_value[None, :], [0], load,
-                              gaussian(t, centre, std))[:, 0]
-
-    y = fft_solution(c_e)
-    mod = modal(ops.M, EI * ops.K0, load, K_h=ops.K0)
-    ref = single_pole_response(mod, c_e * mu, mu, lambda s: gaussian(s, centre, std), t) @ mod.out(ops.tip_value)[0]
-    rms = lambda x: np.sqrt(np.mean(np.square(x)))
-    assert rms(ref - y) / rms(y) < 1e-7
-    assert rms(fft_solution(0.0) - y) / rms(y) > 0.01
+    y = case.fft_response(Exponential().relaxation({"c_e": c_e, "mu": mu}))
+    mod = modal(case.ops.M, EI * case.ops.K0, case.load, K_h=case.ops.K0)
+    ref = single_pole_response(mod, c_e * mu, mu, case.force, case.t) @ mod.out(case.ops.tip_value)[0]
+    assert relative_rms(ref - y, y) < 1e-7
+    assert relative_rms(case.fft_response(Exponential().relaxation({"c_e": 0.0, "mu": mu})) - y, y) > 0.01

@@ -5,15 +5,16 @@ import pytest
 
 from bayesbeam.physics.mechanisms import Fractional
 from bayesbeam.physics.mechanisms.fractional import fractional_transform
-from bayesbeam.response.linear import FrequencyGrid, force_response
-from bayesbeam.response.system import SecondOrderSystem
-from tests.galerkin_reference import EI, gaussian, modal, paper_operators
+from tests.galerkin_reference import modal
 from tests.physics.mechanisms.hereditary_checks import (
+    EI,
     PAPER_EI,
+    PulseCase,
     bare_model,
     damping_ratio,
     kramers_kronig_real,
     modes_and_poles,
+    relative_rms,
 )
 
 MODEL = bare_model("fractional")
@@ -116,9 +117,8 @@ def cq_response(mod, force: np.ndarray, h: float, c_f: float, nu: float) -> np.n
 
 def test_time_response_matches_convolution_quadrature():
     """force_response (exact frequency-domain solve with G(s) = -c_f s^nu) against the CQ
-    reference above, on the paper beam (N = 6), nu = 0.5, c_f = 0.8 N m^2 s^0.5 (mode 1:
-    zeta 3 %), a Gaussian force pulse (std 4 samples, so its samples' band-limited interpolant is
-    the Gaussian), 1 s at 256 Hz, tip displacement.
+    reference above, nu = 0.5, c_f = 0.8 N m^2 s^0.5 (mode 1: zeta 3 %), on the pulse case of
+    hereditary_checks.PulseCase (paper beam, N = 6, Gaussian pulse, 1 s at 256 Hz, tip displacement).
 
     The reference runs at h = dt/4, dt/8, dt/16. It is second order: successive differences
     shrink by 4 (asserted in [3.6, 4.4]). Its error is then the Richardson estimate
@@ -129,33 +129,18 @@ def test_time_response_matches_convolution_quadrature():
     1.1764e-4 against the predicted 1.1761e-4. Without the fractional term (c_f = 0) the response
     differs by 52 %, and with nu = 0.55 instead of 0.5 by 7 %, so a solver that dropped the term or
     mistook its order fails."""
-    ops = paper_operators(6)
+    case = PulseCase()
     nu, c_f = 0.5, 0.8
-    fs, n = 256.0, 256
-    dt = 1 / fs
-    std, centre = 4 * dt, 40 * dt
-    load = ops.rows([0.75])[0]
-    t = dt * np.arange(n)
-
-    def fft_solution(c):
-        system = SecondOrderSystem(ops.M, 0 * ops.M, EI * ops.K0,
-                                   Fractional().relaxation({"c_f": c, "nu": nu}), ops.K0)
-        return force_response(system, FrequencyGrid(n, dt), ops.tip_value[None, :], [0], load,
-                              gaussian(t, centre, std))[:, 0]
-
-    y = fft_solution(c_f)
-    mod = modal(ops.M, EI * ops.K0, load, K_h=ops.K0)
-    tip = mod.out(ops.tip_value)[0]
+    y = case.fft_response(Fractional().relaxation({"c_f": c_f, "nu": nu}))
+    mod = modal(case.ops.M, EI * case.ops.K0, case.load, K_h=case.ops.K0)
+    tip = mod.out(case.ops.tip_value)[0]
     ref = {}
     for m in (4, 8, 16):
-        h = dt / m
-        q = cq_response(mod, gaussian(h * np.arange((n - 1) * m + 1), centre, std), h, c_f, nu)
-        ref[m] = q[::m] @ tip
-    rms = lambda x: np.sqrt(np.mean(np.square(x)))
-    scale = rms(y)
-    d1, d2 = rms(ref[4] - ref[8]) / scale, rms(ref[8] - ref[16]) / scale
+        h = case.dt / m
+        ref[m] = cq_response(mod, case.force(h * np.arange((case.t.size - 1) * m + 1)), h, c_f, nu)[::m] @ tip
+    d1, d2 = relative_rms(ref[4] - ref[8], y), relative_rms(ref[8] - ref[16], y)
     assert 3.6 < d1 / d2 < 4.4, f"reference not second order: ratio {d1 / d2}"
-    err, predicted = rms(ref[16] - y) / scale, d2 / 3
+    err, predicted = relative_rms(ref[16] - y, y), d2 / 3
     assert 0.9 < err / predicted < 1.1, (err, predicted)
-    assert rms((4 * ref[16] - ref[8]) / 3 - y) / scale < 3e-6
-    assert rms(fft_solution(0.0) - y) / scale > 0.1
+    assert relative_rms((4 * ref[16] - ref[8]) / 3 - y, y) < 3e-6
+    assert relative_rms(case.fft_response(Fractional().relaxation({"c_f": 0.0, "nu": nu})) - y, y) > 0.1

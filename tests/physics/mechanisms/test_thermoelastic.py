@@ -10,17 +10,18 @@ from bayesbeam.io import RecordingError, load_recording, write_recording
 from bayesbeam.io.recording import MATERIALS
 from bayesbeam.physics.mechanisms import Thermoelastic
 from bayesbeam.physics.mechanisms.thermoelastic import ZenerConstants, zener_transform
-from bayesbeam.response.linear import FrequencyGrid, force_response
-from bayesbeam.response.system import SecondOrderSystem
-from tests.galerkin_reference import EI, gaussian, modal, paper_operators
+from tests.galerkin_reference import modal
 from tests.physics.effects.helpers import PAPER_BEAM, recording
 from tests.physics.mechanisms.hereditary_checks import (
+    EI,
     PAPER_EI,
+    PulseCase,
     bare_model,
     damping_ratio,
     kramers_kronig_real,
     modes_and_poles,
     oscillatory_root,
+    relative_rms,
     single_pole_response,
 )
 
@@ -83,30 +84,17 @@ def test_kernel_transform_obeys_kramers_kronig():
 
 def test_time_response_matches_internal_variable_integration():
     """force_response with G(s) = -k Delta EI s tau/(1 + s tau) against the exact time stepping of
-    its internal-variable form (g = k Delta EI, a = 1/tau; hereditary_checks.py), paper beam N = 6,
-    k Delta = 0.05 (raised so the memory shows: it changes the response by over 1 %), tau = 13 ms,
-    Gaussian pulse, tip displacement: 1e-7 relative RMS (FFT wrap-around/round-off level)."""
-    ops = paper_operators(6)
+    its internal-variable form (g = k Delta EI, a = 1/tau; hereditary_checks.single_pole_response)
+    on the pulse case (hereditary_checks.PulseCase), k Delta = 0.05 (raised so the memory shows: it
+    changes the response by over 1 %), tau = 13 ms: 1e-7 relative RMS (FFT wrap-around/round-off
+    level)."""
+    case = PulseCase()
     strength, tau = 0.05, 0.013
-    fs, n = 256.0, 256
-    dt = 1 / fs
-    std, centre = 4 * dt, 40 * dt
-    load = ops.rows([0.75])[0]
-    t = dt * np.arange(n)
-
-    def fft_solution(k):
-        g = lambda s: zener_transform(s, k, tau, EI)
-        system = SecondOrderSystem(ops.M, 0 * ops.M, EI * ops.K0, g, ops.K0)
-        return force_response(system, FrequencyGrid(n, dt), ops.tip_value[None, :], [0], load,
-                              gaussian(t, centre, std))[:, 0]
-
-    y = fft_solution(strength)
-    mod = modal(ops.M, EI * ops.K0, load, K_h=ops.K0)
-    ref = single_pole_response(mod, strength * EI, 1 / tau, lambda s: gaussian(s, centre, std), t)
-    ref = ref @ mod.out(ops.tip_value)[0]
-    rms = lambda x: np.sqrt(np.mean(np.square(x)))
-    assert rms(ref - y) / rms(y) < 1e-7
-    assert rms(fft_solution(0.0) - y) / rms(y) > 0.01
+    y = case.fft_response(lambda s: zener_transform(s, strength, tau, EI))
+    mod = modal(case.ops.M, EI * case.ops.K0, case.load, K_h=case.ops.K0)
+    ref = single_pole_response(mod, strength * EI, 1 / tau, case.force, case.t) @ mod.out(case.ops.tip_value)[0]
+    assert relative_rms(ref - y, y) < 1e-7
+    assert relative_rms(case.fft_response(lambda s: zener_transform(s, 0.0, tau, EI)) - y, y) > 0.01
 
 
 # ----------------------------------------------------------------------------- the [material] table
