@@ -145,9 +145,13 @@ def impact_window(force: np.ndarray, *, pre: int = PRE, post: int = POST, taper:
     maximum. Spikes are left out.
     """
     force = np.asarray(force, dtype=float)
-    window = np.zeros(force.size)
-    for hit in find_pulses(force, threshold=threshold).hits:
-        window = np.maximum(window, _hit_window(force.size, hit, pre, post, taper))
+    return _hits_window(force.size, find_pulses(force, threshold=threshold).hits, pre, post, taper)
+
+
+def _hits_window(n: int, hits, pre: int = PRE, post: int = POST, taper: int = TAPER) -> np.ndarray:
+    window = np.zeros(n)
+    for hit in hits:
+        window = np.maximum(window, _hit_window(n, hit, pre, post, taper))
     return window
 
 
@@ -198,7 +202,9 @@ def force_noise(recording, factor: int = 1) -> ForceNoise | None:
     force = recording.force
     if recording.excitation.kind != "force" or force is None:
         return None
-    window = impact_window(force)
+    pulses = find_pulses(force)
+    _report_pulses(recording, pulses)
+    window = _hits_window(force.size, pulses.hits)
     quiet = force[window == 0]
     if quiet.size < 16:
         return None
@@ -212,21 +218,36 @@ def force_noise(recording, factor: int = 1) -> ForceNoise | None:
     mean_w2 = pad[: n_out * factor].reshape(n_out, factor).mean(axis=1)
     index = np.flatnonzero(mean_w2 > 0)
     if index.size > MAX_LATENT:
-        _warn_many_latent(recording, index.size, factor)
+        _warn_many_latent(recording, pulses.hits, index.size, factor)
     return ForceNoise(sd, index, sd**2 / factor * mean_w2[index])
 
 
-def _warn_many_latent(recording, n_latent: int, factor: int) -> None:
+def _pulse_times(recording, pulses) -> str:
+    return ", ".join(f"{recording.time[p.peak_index]:.4g} s ({p.width} samples)" for p in pulses)
+
+
+def _report_pulses(recording, pulses: ForcePulses) -> None:
+    """Say in the run's output when the force holds more than one hit, or spikes left out."""
+    where = recording.source or "recording"
+    if len(pulses.hits) > 1:
+        warnings.warn(f"{where}: the force channel holds {len(pulses.hits)} hits, at "
+                      f"{_pulse_times(recording, pulses.hits)}; every hit stays in the force window.",
+                      stacklevel=3)
+    if pulses.spikes:
+        warnings.warn(f"{where}: isolated spike(s) in the force channel at {_pulse_times(recording, pulses.spikes)} "
+                      f"(one or two samples, no pulse shape) are left out of the force window.", stacklevel=3)
+
+
+def _warn_many_latent(recording, hits, n_latent: int, factor: int) -> None:
     """Say that the force-noise marginalisation has grown, and where the hits are."""
-    hits = find_pulses(recording.force).hits
-    times = ", ".join(f"{recording.time[h.start]:.4g} s ({h.width} samples)" for h in hits)
+    times = _pulse_times(recording, hits)
     warnings.warn(
         f"{recording.source or 'recording'}: the force window keeps {n_latent} samples at "
         f"{recording.fs / factor:.6g} Hz (more than {MAX_LATENT}); each is a latent term of the "
         f"force-noise marginalisation, which slows every likelihood evaluation. The window holds "
         f"{len(hits)} hit(s): {times}. Fix: check the force channel (bayesbeam check), lower "
         f"--max-frequency (a fit then decimates), or trim the record to the hits that matter.",
-        stacklevel=2)
+        stacklevel=3)
 
 
 def decimate(recording, factor: int, *, force_window: bool | None = None):

@@ -160,11 +160,29 @@ def hammer_recording(hits):
 def test_many_latent_samples_warn():
     """Three hits kept at the recorded rate: about 3 x 45 latent force-noise samples, over
     MAX_LATENT, and the warning names the count and the hits. Decimated by 10 (as a fit below
-    200 Hz would) the same window leaves about 15: no warning."""
+    200 Hz would) the same window leaves about 15: no such warning."""
     rec = hammer_recording(((HAMMER_T0, HAMMER_PEAK), (HAMMER_T0 + 0.005, 4.0), (HAMMER_T0 + 0.300, 3.0)))
-    with pytest.warns(UserWarning, match=r"force window keeps \d+ samples.*3 hit\(s\)") as record:
+    with pytest.warns(UserWarning) as record:
         noise = force_noise(rec)
-    assert noise.size > MAX_LATENT and str(noise.size) in str(record[0].message)
+    (latent,) = [str(w.message) for w in record if "force window keeps" in str(w.message)]
+    assert noise.size > MAX_LATENT and f"keeps {noise.size} samples" in latent and "3 hit(s)" in latent
+    with warnings.catch_warnings(record=True) as record:
+        warnings.simplefilter("always")
+        assert force_noise(rec, 10).size < MAX_LATENT
+    assert not [w for w in record if "force window keeps" in str(w.message)]
+
+
+def test_hits_and_spikes_are_reported_in_the_run_output():
+    """A fit's force_noise says, as a warning the command line prints, that a second hit stays in
+    the window (with its time) and that a spike is left out; a single clean hit says nothing."""
+    rec = hammer_recording(((HAMMER_T0, HAMMER_PEAK), (HAMMER_T0 + 0.300, 3.0)))
+    force = rec.force.copy()
+    force[int(3.73 * HAMMER_FS)] = 8 * HAMMER_NOISE
+    with pytest.warns(UserWarning) as record:
+        force_noise(replace(rec, force=force), 10)
+    messages = " ".join(str(w.message) for w in record)
+    assert "holds 2 hits" in messages and "0.4 s" in messages
+    assert "isolated spike" in messages and "3.73 s" in messages
     with warnings.catch_warnings():
         warnings.simplefilter("error", UserWarning)
-        assert force_noise(rec, 10).size < MAX_LATENT
+        force_noise(hammer_recording(((HAMMER_T0, HAMMER_PEAK),)), 10)
