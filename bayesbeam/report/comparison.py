@@ -97,25 +97,26 @@ def _verdict_section(summary) -> str:
 
 
 def _caveats(summary) -> list[str]:
-    """What should make a reader less sure: unconverged repeats, a coarse grid, missed modes."""
+    """What should make a reader less sure, in plain words; the numbers behind each (R-hat, the
+    shift with the grid) are in the Convergence section."""
     out = []
     models = summary["models"]
-    unconverged = [f"{m} ({name} {value:.3f})" for m in summary["ranking"]
-                   for name, value in [_worst_rhat(models[m])] if value > RHAT_FLAG]
+    unconverged = [m for m in summary["ranking"] if _worst_rhat(models[m])[1] > RHAT_FLAG]
     if unconverged:
-        out.append(f"The SMC repeats disagree (R-hat > {RHAT_FLAG}) for {', '.join(unconverged)}: more particles "
-                   f"or repeats would sharpen these posteriors and evidences.")
-    coarse = [f"{m} ({models[m]['discretisation_check']['max_shift_sd']:.3g} sd)" for m in summary["ranking"]
-              if not models[m]["discretisation_check"]["passed"]]
+        out.append(f"The estimates of {', '.join(unconverged)} are not settled: independent runs of the sampler "
+                   f"disagree. Rerun with more --particles or --repeats before quoting them closely "
+                   f"(details under Convergence).")
+    coarse = [m for m in summary["ranking"] if not models[m]["discretisation_check"]["passed"]]
     if coarse:
-        out.append(f"A finer spline grid would move the optimum by more than the tolerance for "
-                   f"{', '.join(coarse)}: those estimates are limited by the discretisation (see Convergence).")
+        out.append(f"The estimates of {', '.join(coarse)} still move when the beam model is made finer: their "
+                   f"last digits depend on the model's resolution; fix a finer one with --n-intervals to check "
+                   f"(details under Convergence).")
     best = summary["best"]
     missed = [str(row["mode"]) for row in summary["models"][best]["modes"]
               if _outside(row["measured_damping_ratio"], row["predicted_damping_ratio_90"])]
     if missed:
-        out.append(f"The measured damping ratio of mode(s) {', '.join(missed)} lies outside the best "
-                   f"model's predictive 90% interval.")
+        out.append(f"The measured damping of mode(s) {', '.join(missed)} is outside what {best} predicts "
+                   f"(its 90% interval): {best} does not explain the damping of that mode (Damping per mode).")
     return out
 
 

@@ -15,6 +15,7 @@ import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.patches import Rectangle
 
+from bayesbeam.compare import strength
 from bayesbeam.diagnose import flags
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.comparison import RHAT_FLAG, WIDTH
@@ -76,7 +77,14 @@ def _header(d, summary) -> str:
 
 
 def _summary_section(summary) -> str:
-    out = [h2("summary", SECTIONS), f'<p class="verdict">{esc(summary["summary"])}</p>']
+    out = [h2("summary", SECTIONS), f'<p class="verdict">{esc(" ".join(lead(summary)))}</p>']
+    recheck = summary.get("damping_recheck")
+    if recheck and recheck["switched"]:
+        out.append(f"<p>With {esc(' and '.join(recheck['effects']))} in every model the damping models were compared "
+                   f"again, and the damping verdict changed from {esc(recheck['previous'])} to "
+                   f"<b>{esc(recheck['best'])}</b> (see <a href=\"#candidates\">Candidates and decisions</a>).</p>")
+    out.append('<p>Each candidate tried, the decision on it and why, the models not fitted and why: '
+               '<a href="#candidates">Candidates and decisions</a>.</p>')
     if summary["not_beam_physics"]:
         out.append("<h3>Not beam physics (not fitted)</h3><p>Lines in the final model's map that do not decay "
                    "with the beam (pickup): left out of the diagnosis.</p>"
@@ -85,6 +93,66 @@ def _summary_section(summary) -> str:
         out.append("<h3>Unexplained</h3><p>Where the final model still misses beam physics.</p>"
                    + regions_table(summary["unexplained_regions"]))
     return "".join(out)
+
+
+def lead(summary: dict) -> list[str]:
+    """Three plain sentences from diagnosis.json (``summary``): what was missing, how strong the
+    evidence is, and how much the fit improved."""
+    return [_missing_sentence(summary), _evidence_sentence(summary), _improvement_sentence(summary)]
+
+
+def _missing_sentence(summary) -> str:
+    base = summary["baseline"]["model"]
+    added = [c for c in summary["candidates"] if c["added"]]
+    if added:
+        final = summary["final"].get("parameters", {})
+        found = "; ".join(f"{_effect_words(c['effect'])} ({c['effect']}), "
+                          + ", ".join(_estimate(name, final.get(name, q)) for name, q in c["parameters"].items())
+                          for c in added)
+        return f"What the damping model {base} left out of this recording: {found}."
+    if summary["unexplained"]:
+        return (f"Something the damping model {base} leaves out shows above the noise, but no effect of the "
+                f"catalogue explains it (where: Unexplained, below).")
+    return f"Nothing the damping model {base} leaves out shows above the noise: no effect was needed."
+
+
+def _evidence_sentence(summary) -> str:
+    added = [c for c in summary["candidates"] if c["added"]]
+    if added:
+        return ("The evidence is " + " and ".join(
+            f"{strength(c['delta_log_evidence'])} for {c['effect']} (the data favour the model with it by a log Bayes "
+            f"factor of {c['delta_log_evidence']:.1f} +- {c['delta_log_evidence_sd']:.1f} nats)" for c in added) + ".")
+    if summary["candidates"]:
+        best = max(summary["candidates"], key=lambda c: c["delta_log_evidence"])
+        return (f"No candidate passed: the strongest, {best['effect']}, scored a log Bayes factor of "
+                f"{best['delta_log_evidence']:.1f} +- {best['delta_log_evidence_sd']:.1f} nats, "
+                + ("but the mismatch map did not improve." if best["decisive"] else "not decisive evidence."))
+    return "No candidate effect had a signature worth fitting, so there is no evidence to weigh."
+
+
+def _improvement_sentence(summary) -> str:
+    before, after = summary["baseline"], summary["final"]
+    rms = (f"RMS standardized residual (1 when only noise is left) from {before['rms_standardized_residual']:.2f} "
+           f"to {after['rms_standardized_residual']:.2f}, flags in the mismatch map from {before['flags']} to "
+           f"{after['flags']}")
+    if before["model"] == after["model"]:
+        return (f"The fit is unchanged: {before['model']}'s RMS standardized residual is "
+                f"{before['rms_standardized_residual']:.2f} (1 when only noise is left) with {before['flags']} "
+                f"flag(s) in the mismatch map.")
+    return (f"The fit improved from {before['model']} to {after['model']}: {rms}, log evidence from "
+            f"{before['log_evidence']:.1f} to {after['log_evidence']:.1f}.")
+
+
+def _effect_words(name: str) -> str:
+    """The catalogue's description of an effect up to its first comma ("rotational spring at the clamp")."""
+    from bayesbeam.physics.effects import resolve
+
+    return resolve([name])[0].description.split(",")[0]
+
+
+def _estimate(name: str, q: dict) -> str:
+    unit = f" {q['unit']}" if q["unit"] else ""
+    return f"{name} = {q['mean']:.4g}{unit} (90% interval {q['q05']:.4g} to {q['q95']:.4g})"
 
 
 def regions_table(regions) -> str:
@@ -288,6 +356,7 @@ def _candidates_section(d, summary) -> str:
             ["round", "model", "why"], [["re-check" if n["round"] == 0 else str(n["round"]), esc(n["model"]),
                                          esc(n["reason"])] for n in summary["not_fitted"]], text_columns=3))
     out.append(_decision_rule(summary["decision_rule"]))
+    out.append(f"<h3>The decisions in words</h3><p>{esc(summary['summary'])}</p>")
     if summary["baseline_comparison"]:
         out.append("<h3>Baseline chosen by evidence</h3>" + _comparison_table(summary["baseline_comparison"]))
     recheck = summary.get("damping_recheck")

@@ -97,3 +97,27 @@ def test_noise_level_is_that_of_noise_in_the_checks_residual_spectrum(phi):
     for part in np.array_split(np.flatnonzero((f > 10) & (f < 390)), 4):
         ratio = np.sqrt(np.mean(amplitude[part] ** 2) / np.mean(level[part] ** 2))
         assert abs(ratio - 1) < 0.05, (f[part[0]], ratio)
+
+
+def test_caveats_say_what_to_doubt_and_do_in_plain_words(report):
+    """Unsettled repeats and a grid that still moves the optimum each give the reader a caveat
+    naming the model and what to do; the statistics behind them (R-hat, the shift in posterior sd)
+    stay in the Convergence section, not in the caveats. The summary is the fixture's, with its
+    best model's R-hat and discretisation check made to fail."""
+    import copy
+
+    from bayesbeam.report.comparison import RHAT_FLAG, _verdict_section
+
+    _, _, summary = report
+    best = summary["best"]
+    worse = copy.deepcopy(summary)
+    name = next(iter(worse["models"][best]["posterior"]))
+    worse["models"][best]["posterior"][name]["r_hat"] = RHAT_FLAG + 0.05
+    worse["models"][best]["discretisation_check"].update(passed=False, max_shift_sd=0.3)
+    items = re.findall(r"<li>(.*?)</li>", _verdict_section(worse))
+    unsettled = [c for c in items if "not settled" in c]
+    resolution = [c for c in items if "finer" in c]
+    assert len(unsettled) == 1 and best in unsettled[0] and "--particles or --repeats" in unsettled[0]
+    assert len(resolution) == 1 and best in resolution[0] and "--n-intervals" in resolution[0]
+    for caveat in unsettled + resolution:
+        assert "R-hat" not in caveat and " sd" not in caveat and "Convergence" in caveat

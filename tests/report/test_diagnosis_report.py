@@ -12,8 +12,9 @@ import subprocess
 
 import pytest
 
+from bayesbeam.compare import strength
 from bayesbeam.diagnose import effect_parameters, paragraph
-from bayesbeam.report.diagnosis import SECTIONS, write_report
+from bayesbeam.report.diagnosis import SECTIONS, lead, write_report
 from tests.diagnosis_cases import diagnosed
 
 
@@ -52,13 +53,41 @@ def test_report_is_one_self_contained_file(report):
 
 
 def test_every_section_and_the_plain_paragraph_are_in_the_report(report):
+    """The summary leads with the three plain sentences; the diagnosis's full paragraph, with the
+    solver's reasons for what was not fitted, is in the candidates section."""
     _, text, d = report
     for anchor, title in SECTIONS:
         assert f'<h2 id="{anchor}">{title}</h2>' in text
-    assert f'<p class="verdict">{html.escape(paragraph(d, [effect_parameters(t) for t in d.trials]))}</p>' in section(text, "summary")
+    assert f'<p class="verdict">{html.escape(" ".join(lead(d.to_dict())))}</p>' in section(text, "summary")
+    paragraph_html = html.escape(paragraph(d, [effect_parameters(t) for t in d.trials]))
+    assert paragraph_html in section(text, "candidates") and paragraph_html not in section(text, "summary")
     header = text[:text.index("<nav>")]
     assert f"<td>{d.final.name}</td>" in header.replace(' class="text"', "")
     assert ("root_compliance" in header) == bool(d.added)
+
+
+def test_summary_leads_with_what_was_missing_the_evidence_and_the_improvement(report):
+    """Three sentences, each checked against the Diagnosis object itself (not diagnosis.json's
+    text): the added effect and its estimate (effect_parameters of the trial, 4 significant digits
+    as shown), the log Bayes factor and its Kass & Raftery strength, and the RMS standardized
+    residual before and after (2 decimals as shown); for the null recording, that nothing was
+    missing, nothing weighed and the fit unchanged."""
+    _, _, d = report
+    missing, evidence, improvement = lead(d.to_dict())
+    before, after = d.baseline_mismatch.rms_standardized_residual, d.final_mismatch.rms_standardized_residual
+    if d.added:
+        trial = next(t for t in d.trials if t.added)
+        q = effect_parameters(trial)["k_theta"]
+        assert trial.effect in missing and "rotational spring at the clamp" in missing
+        assert f"k_theta = {q['mean']:.4g} N m/rad" in missing and d.baseline.name in missing
+        assert f"{trial.log_bayes_factor:.1f} +- {trial.log_bayes_factor_sd:.1f} nats" in evidence
+        assert evidence.startswith(f"The evidence is {strength(trial.log_bayes_factor)} for {trial.effect}")
+        assert f"from {before:.2f} to {after:.2f}" in improvement and d.final.name in improvement
+        assert f"from {d.baseline.evidence.log_z:.1f} to {d.final.evidence.log_z:.1f}" in improvement
+    else:
+        assert not d.trials and "Nothing the damping model q1 leaves out shows above the noise" in missing
+        assert "no evidence to weigh" in evidence
+        assert improvement.startswith("The fit is unchanged") and f"{before:.2f}" in improvement
 
 
 def test_maps_before_and_after_only_when_an_effect_was_added(report):
@@ -117,7 +146,11 @@ def test_models_not_fitted_and_the_damping_recheck_are_shown():
                                                                     "probability": 1.0},
                                              "q2+root_compliance": {"log_evidence": -60.0, "log_evidence_sd": 0.1,
                                                                     "probability": 0.0}}}
-    part = section(render(d, summary), "candidates")
+    text = render(d, summary)
+    part = section(text, "candidates")
+    # the solver's reason is machinery: in the candidates section, not in the summary
+    assert "dense solve" in part and "dense solve" not in section(text, "summary")
+    assert "the damping verdict changed from q2+root_compliance to <b>q1+root_compliance</b>" in section(text, "summary")
     rows = body_rows(part[part.index("<h3>Not fitted</h3>"):])
     assert "q2+axial_load" in rows[0] and "re-check" in rows[1]
     recheck = part[part.index("<h3>Damping re-checked with root_compliance</h3>"):]
