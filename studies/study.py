@@ -55,8 +55,3 @@ def run(arguments: list[str]) -> int:
     finally:
         os.chdir(here)
         print(f"({time.perf_counter() - started:.0f} s)", flush=True)
-
-
-def fmt(value: float, digits: int = 4) -> str:
-    """``value`` to ``digits`` significant digits."""
-    return f"{value:.{digits}g}"
