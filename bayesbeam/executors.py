@@ -13,6 +13,8 @@ from concurrent.futures import ProcessPoolExecutor
 
 #: address schemes of a Dask scheduler
 DASK_SCHEMES = ("tcp://", "tls://", "inproc://", "ucx://")
+#: the executors named by a word (the others by a Dask scheduler address)
+NAMED = ("serial", "local", "mpi")
 
 
 class SerialExecutor:
@@ -97,7 +99,7 @@ def get_executor(spec=None, processes: int | None = None):
         return DaskExecutor(spec)
     if spec == "mpi":
         return MPIExecutor()
-    if spec not in (None, "local", "serial"):
+    if spec is not None and spec not in NAMED:
         raise ValueError(f"--executor {spec!r}: expected 'serial', 'local', 'mpi' or a Dask scheduler address "
                          f"such as tcp://host:8786")
     processes = processes or os.cpu_count() or 1

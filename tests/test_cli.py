@@ -27,7 +27,7 @@ def test_simulate_writes_a_recording_and_prints_modes(tmp_path, capsys):
 def test_noise_is_reproducible_with_a_seed(tmp_path):
     rec = str(DATA / "examples" / "alu_q1_release")
     args = ["--model", "q1", "--set", "EI=3.9375", "--set", "gamma=0.18", "--set", "cdI=5.5e-6",
-            "--noise", "0.02", "--seed", "7"]
+            "--noise-level", "0.02", "--seed", "7"]
     for name in ("a", "b"):
         assert main(["simulate", rec, *args, "--out", str(tmp_path / name)]) == 0
     a, b = load_recording(tmp_path / "a"), load_recording(tmp_path / "b")
@@ -61,6 +61,10 @@ def test_existing_output_is_not_overwritten(tmp_path, capsys):
     (out / "keep.txt").write_text("x")
     code = main(["simulate", str(DATA / "examples" / "paper_q3_hammer"), *Q3, "--out", str(out)])
     assert code == 2 and (out / "keep.txt").exists()
+    assert "keep.txt" in capsys.readouterr().err
+    # --overwrite replaces the folder by the recording, as its help says
+    assert main(["simulate", str(DATA / "examples" / "paper_q3_hammer"), *Q3, "--out", str(out), "--overwrite"]) == 0
+    assert not (out / "keep.txt").exists() and load_recording(out).n_samples == 8192
 
 
 def test_bad_recording_exits_2(tmp_path, capsys):
@@ -75,7 +79,7 @@ def test_console_script_runs():
 
 
 FIT_ARGS = ["--model", "air", "--stop", "0.5", "--max-frequency", "60", "--n-intervals", "8",
-            "--walkers", "8", "--quiet"]
+            "--walkers", "8", "--executor", "serial", "--quiet"]
 
 
 def test_fit_writes_outputs_and_flags_unconverged_chains(tmp_path, capsys):
@@ -98,19 +102,11 @@ def test_fit_writes_outputs_and_flags_unconverged_chains(tmp_path, capsys):
     # --resume continues the saved chain instead of starting again
     code = main(["fit", rec, *FIT_ARGS, "--max-steps", "90", "--resume", "--out", str(out)])
     assert json.loads((out / "summary.json").read_text())["convergence"]["n_steps"] == 90
+    # without --resume or --overwrite the written folder is refused
+    assert main(["fit", rec, *FIT_ARGS, "--max-steps", "90", "--out", str(out)]) == 2
+    assert "--overwrite or --resume" in capsys.readouterr().err
 
 
 def test_fit_refuses_an_unknown_model(tmp_path, capsys):
     code = main(["fit", str(DATA / "examples" / "paper_q3_hammer"), "--model", "q9", "--out", str(tmp_path / "x")])
     assert code == 2 and "unknown damping mechanism" in capsys.readouterr().err
-
-
-@pytest.mark.parametrize("command", ["fit", "compare", "diagnose"])
-def test_no_force_noise_flag_reaches_the_fit_config(command):
-    from bayesbeam.cli import build_parser
-    from bayesbeam.cli.fit import fit_config
-
-    rec = str(DATA / "examples" / "paper_q3_hammer")
-    parser = build_parser()
-    assert fit_config(parser.parse_args([command, rec, "--out", "x"])).force_noise is True
-    assert fit_config(parser.parse_args([command, rec, "--no-force-noise", "--out", "x"])).force_noise is False

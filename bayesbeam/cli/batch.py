@@ -1,9 +1,9 @@
 """``bayesbeam batch``: compare models on a campaign of recordings, resuming what finished.
 
 Each recording's comparison goes to ``OUT/<recording name>/`` (as ``bayesbeam compare`` writes
-it); a recording whose ``comparison.json`` exists is not run again. At the end ``OUT/batch.csv``
-and ``OUT/batch.json`` hold one row per recording and model: evidence, probability, rank and the
-posterior mean and 90 % interval of every parameter.
+it); with ``--resume``, a recording whose ``comparison.json`` exists is not run again. At the end
+``OUT/batch.csv`` and ``OUT/batch.json`` hold one row per recording and model: evidence,
+probability, rank and the posterior mean and 90 % interval of every parameter.
 """
 from __future__ import annotations
 
@@ -12,38 +12,36 @@ import io
 import json
 from pathlib import Path
 
-from bayesbeam.cli.common import UsageError
+from bayesbeam.cli.common import UsageError, add_out_options, job_executor, output_folder
 from bayesbeam.cli.compare import add_comparison_options, comparison_config, model_list
 from bayesbeam.io import load_recording
 from bayesbeam.io.atomic import write_text
 
-HELP = "compare models on many recordings (local processes or a Dask cluster), one table out"
+HELP = "compare models on many recordings (local processes, MPI or a Dask cluster), one table out"
 
 
 def add_arguments(p) -> None:
-    from bayesbeam.compare import DEFAULT_MODELS
-
     p.add_argument("recordings", nargs="+", help="recording directories")
-    add_comparison_options(p, DEFAULT_MODELS)
-    p.add_argument("--out", required=True, help="output directory (one subdirectory per recording, batch.csv/json)")
+    add_comparison_options(p)
+    add_out_options(p, "one subdirectory per recording, batch.csv, batch.json",
+                    resume="continue a campaign: skip the recordings already compared in OUT")
 
 
 def run(args) -> int:
     from bayesbeam.compare import compare
-    from bayesbeam.executors import get_executor
     from bayesbeam.inference.sampler import stderr_progress
     from bayesbeam.report.compare_outputs import write_comparison
     from bayesbeam.report.fit_outputs import write_json
 
-    models = model_list(args.models)
+    out = output_folder(args)
+    models = model_list(args.models, args.effect)
     config = comparison_config(args)
-    out = Path(args.out)
     targets = _targets(args.recordings, out)
     say = (lambda _text: None) if args.quiet else stderr_progress
-    executor = get_executor(args.executor, args.processes)
+    executor = job_executor(args)
     try:
         for source, target in targets:
-            if (target / "comparison.json").exists():
+            if args.resume and (target / "comparison.json").exists():
                 say(f"{source}: already compared in {target}, skipped")
                 continue
             say(f"{source}: comparing {len(models)} models")

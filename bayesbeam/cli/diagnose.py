@@ -1,8 +1,15 @@
 """``bayesbeam diagnose``: what the best damping model misses, which physics explains it, and the fit with it."""
 from __future__ import annotations
 
-from bayesbeam.cli.common import UsageError
-from bayesbeam.cli.compare import add_evidence_options, check_model, comparison_config
+from bayesbeam.cli.common import (
+    UsageError,
+    add_effect_option,
+    add_out_options,
+    job_executor,
+    model_spec,
+    output_folder,
+)
+from bayesbeam.cli.compare import add_evidence_options, comparison_config
 from bayesbeam.io import load_recording
 
 HELP = "locate where the best damping model misses a recording, name and add the missing physics"
@@ -10,15 +17,14 @@ HELP = "locate where the best damping model misses a recording, name and add the
 
 def add_arguments(p) -> None:
     p.add_argument("recording", help="recording directory (beam.toml + recording.csv)")
-    p.add_argument("--model", help="baseline damping model (preset or '+'-joined mechanisms); default: the best "
-                                   "of the default models by evidence (runs a comparison first)")
-    p.add_argument("--candidates", type=int, default=2, help="augmented models fitted per round (default 2)")
-    p.add_argument("--rounds", type=int, default=2, help="effects added at most (default 2)")
-    p.add_argument("--map-replicates", type=int, default=40,
-                   help="replicates of the mismatch map (default 40)")
+    p.add_argument("--model", help="baseline damping model, a preset or '+'-joined mechanisms (default: the best "
+                                   "of the default models by evidence, from a comparison run first)")
+    add_effect_option(p)
+    p.add_argument("--candidates", type=int, default=2, help="augmented models fitted per round")
+    p.add_argument("--rounds", type=int, default=2, help="effects added at most")
+    p.add_argument("--map-replicates", type=int, default=40, help="replicates of the mismatch map")
     add_evidence_options(p)
-    p.add_argument("--out", required=True, help="output directory (diagnosis.json, report.html, posteriors/)")
-    p.set_defaults(effect=None)
+    add_out_options(p, "diagnosis.json, report.html, posteriors/")
 
 
 def diagnose_config(args):
@@ -34,21 +40,25 @@ def diagnose_config(args):
 
 def run(args) -> int:
     from bayesbeam.diagnose import diagnose
-    from bayesbeam.executors import get_executor
     from bayesbeam.inference.sampler import stderr_progress
     from bayesbeam.report.diagnose_outputs import write_diagnosis
 
-    rec = load_recording(args.recording)
-    if args.model:
-        check_model(args.model, "--model")
+    out = output_folder(args)
+    # with --model, the effects join it; without, each default model the comparison starts from
+    model = model_spec(args.model, args.effect) if args.model else None
+    effects = () if args.model else tuple(args.effect or ())
+    if len(set(effects)) < len(effects):
+        raise UsageError(f"--effect {' '.join(effects)}: an effect is given twice. Fix: name each once.")
     config = diagnose_config(args)
-    executor = get_executor(args.executor, args.processes)
+    rec = load_recording(args.recording)
+    executor = job_executor(args)
     try:
-        result = diagnose(rec, args.model, config, executor, log=None if args.quiet else stderr_progress)
+        result = diagnose(rec, model, config, executor, log=None if args.quiet else stderr_progress,
+                          effects=effects)
     finally:
         executor.close()
     summary = result.to_dict()
-    paths = write_diagnosis(result, summary, args.out)
+    paths = write_diagnosis(result, summary, out)
     print(f"baseline {summary['baseline']['model']}: log Z {summary['baseline']['log_evidence']:.1f}, "
           f"RMS standardized residual {summary['baseline']['rms_standardized_residual']:.2f}")
     print(f"added: {', '.join(summary['added']) or 'nothing'}; unexplained: {summary['unexplained']}")
@@ -56,5 +66,5 @@ def run(args) -> int:
           f"RMS standardized residual {summary['final']['rms_standardized_residual']:.2f}")
     print()
     print(summary["summary"])
-    print(f"wrote {', '.join(p.name for p in paths[-2:])} and posteriors/ in {args.out}")
+    print(f"wrote {', '.join(p.name for p in paths[-2:])} and posteriors/ in {out}")
     return 0

@@ -1,6 +1,7 @@
 """``bayesbeam ema``: E, gamma and c_d from a modal table by the paper's eqs. (27)-(29), as in its Table 4."""
 from __future__ import annotations
 
+from bayesbeam.cli.common import add_out_options, output_folder
 from bayesbeam.io import RecordingError, load_beam_description
 
 HELP = "E, gamma and c_d from a modal table (Banks & Inman eqs. 27-29, successive mode sets)"
@@ -10,7 +11,7 @@ def add_arguments(ema) -> None:
     ema.add_argument("table", help="modal table CSV: mode,frequency_hz,damping_ratio[,damping_ratio_sd] "
                                    "(damping ratio and sd as fractions, not %%)")
     ema.add_argument("--beam", required=True, help="beam.toml whose [beam] gives l, rho, A and I (no tip body)")
-    ema.add_argument("--out", required=True, help="output directory (ema.json, table4.csv, ema.png)")
+    add_out_options(ema, "ema.json, table4.csv, ema.png")
 
 
 def _bare_beam(path):
@@ -28,6 +29,7 @@ def run(args) -> int:
     from bayesbeam.modal.ema import ema_from_table, read_modal_table
     from bayesbeam.modal.outputs import ema_document, write_ema_outputs
 
+    out = output_folder(args)
     table = read_modal_table(args.table)
     if len(table.modes) < 2:
         raise ValueError(f"{args.table}: holds {len(table.modes)} mode. Fix: give at least two modes "
@@ -37,7 +39,7 @@ def run(args) -> int:
     result = ema_from_table(table.frequency_hz, table.damping_ratio, sd=table.damping_ratio_sd,
                             modes=table.modes, **beam)
     document = ema_document(result, table_file=args.table, beam_file=desc.file, **beam)
-    paths = write_ema_outputs(args.out, result, table, document, second_moment=beam["second_moment"],
+    paths = write_ema_outputs(out, result, table, document, second_moment=beam["second_moment"],
                               rho_a=beam["rho_a"])
     print(f"E = {result.E:.5g} Pa (eq. 27, modes {result.modes}; sd of the per-mode values {result.E_sd:.3g} Pa)")
     print(f"{'modes':>10}  {'gamma (visc.)':>13}  {'c_d (strain)':>12}  {'gamma (both)':>12}  {'c_d (both)':>12}"

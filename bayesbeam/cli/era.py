@@ -1,9 +1,7 @@
 """``bayesbeam era``: a recording's modal table by ERA, with a stabilization diagram."""
 from __future__ import annotations
 
-from pathlib import Path
-
-from bayesbeam.cli.common import UsageError
+from bayesbeam.cli.common import UsageError, add_out_options, output_folder
 from bayesbeam.io import load_recording
 
 HELP = "modal table of a recording by ERA (frequencies, damping ratios, shapes at the sensors)"
@@ -11,18 +9,19 @@ HELP = "modal table of a recording by ERA (frequencies, damping ratios, shapes a
 
 def add_arguments(era) -> None:
     era.add_argument("recording", help="recording directory (beam.toml + recording.csv)")
-    era.add_argument("--out", required=True, help="output directory (modal.csv, era.json, stabilization.png)")
-    era.add_argument("--order", type=int, help="ERA model order (default 3x the nominal modes in the band)")
-    era.add_argument("--max-order", type=int, help="highest order in the stabilization diagram (default 2x order)")
-    era.add_argument("--rows", type=int, help="Hankel block rows (default min(n/3, max(20, 300/channels)))")
-    era.add_argument("--modes", type=int, help="keep bending modes 1..N only")
+    era.add_argument("--order", type=int, help="ERA model order (default: 3 x the nominal modes in the band)")
+    era.add_argument("--max-order", type=int, help="highest order in the stabilization diagram (default: 2 x order)")
+    era.add_argument("--rows", type=int, help="Hankel block rows (default: min(n/3, max(20, 300/channels)))")
+    era.add_argument("--modes", type=int, metavar="N", help="keep bending modes 1..N only (default: every mode "
+                                                             "identified in the band)")
     era.add_argument("--start", type=float, help="start of the free decay (s; default: after the force, "
                                                  "release or free_decay start, plus 128 samples)")
     era.add_argument("--stop", type=float, help="end of the free decay (s; default: end of the record)")
-    era.add_argument("--max-frequency", type=float, help="top of the band kept (Hz; default 0.40 fs)")
-    era.add_argument("--min-emac", type=float, default=0.8, help="drop poles with EMAC below this (default 0.8)")
+    era.add_argument("--max-frequency", type=float, help="top of the band kept (Hz; default: 0.40 fs)")
+    era.add_argument("--min-emac", type=float, default=0.8, help="drop poles with EMAC below this")
     era.add_argument("--uff", action="store_true",
                      help="also write the input time histories (recording.uff, UFF58) and the modes (modes.uff, UFF55)")
+    add_out_options(era, "modal.csv, era.json, stabilization.png")
 
 
 def _check(args) -> None:
@@ -38,6 +37,7 @@ def run(args) -> int:
     from bayesbeam.modal.outputs import write_era_outputs
 
     _check(args)
+    out = output_folder(args)
     rec = load_recording(args.recording)
     modes = identify_modes(rec, order=args.order, n_rows=args.rows, start=args.start, stop=args.stop,
                            max_frequency=args.max_frequency, n_modes=args.modes, min_emac=args.min_emac,
@@ -45,7 +45,6 @@ def run(args) -> int:
     if not modes.modes:
         raise ValueError(f"{rec.source}: ERA kept no bending mode below {modes.max_frequency_hz:.4g} Hz. Fix: check "
                          "the free-decay segment (--start/--stop), raise --order or lower --min-emac.")
-    out = Path(args.out)
     paths = write_era_outputs(out, modes, rec)
     if args.uff:
         paths.append(write_uff58(rec, out / "recording.uff"))

@@ -1,9 +1,21 @@
 """``bayesbeam fit``: the posterior of one damping model's parameters, to converged chains."""
 from __future__ import annotations
 
-from pathlib import Path
+import os
 
-from bayesbeam.cli.common import EXIT_NOT_CONVERGED, UsageError
+from bayesbeam.cli.common import (
+    EXIT_NOT_CONVERGED,
+    UsageError,
+    add_effect_option,
+    add_force_window_option,
+    add_out_options,
+    add_run_options,
+    add_seed_option,
+    model_spec,
+    output_folder,
+    positive_int,
+)
+from bayesbeam.inference.likelihood import NOISE_MODELS
 from bayesbeam.io import load_recording
 
 HELP = "sample the posterior of a damping model's parameters"
@@ -11,26 +23,34 @@ HELP = "sample the posterior of a damping model's parameters"
 
 def add_arguments(fit) -> None:
     fit.add_argument("recording", help="recording directory (beam.toml + recording.csv)")
-    fit.add_argument("--model", default="q1", help="preset (q1, q2, q3) or mechanisms joined by '+'")
-    fit.add_argument("--effect", action="append", metavar="EFFECT", help="add a missing-physics effect")
-    fit.add_argument("--config", help="fit file (TOML): [fit] settings and [prior.NAME] tables")
-    fit.add_argument("--n-intervals", type=int, help="fix the spline intervals N (default: automatic)")
-    fit.add_argument("--start", type=float, help="start of the fitted window (s)")
-    fit.add_argument("--stop", type=float, help="end of the fitted window (s)")
-    fit.add_argument("--max-frequency", type=float,
-                     help="top of the fitted band (Hz; default 0.38 fs, the record is decimated to suit)")
-    fit.add_argument("--noise", choices=["white", "ar1"], help="noise model per channel (default white)")
-    fit.add_argument("--no-force-noise", action="store_true",
-                     help="do not marginalise the response driven by the force channel's noise inside the impact window")
-    fit.add_argument("--walkers", type=int, help="emcee walkers (default max(4 x dim, 16))")
-    fit.add_argument("--max-steps", type=int, help="cap on steps per walker (default 20000)")
-    fit.add_argument("--seed", type=int, help="random seed (default 1)")
-    fit.add_argument("--processes", type=int, default=1, help="local worker processes (default 1)")
-    fit.add_argument("--executor", choices=["local", "mpi"], default="local",
-                     help="where likelihoods run: local processes or an MPI pool (mpi4py.futures)")
-    fit.add_argument("--resume", action="store_true", help="continue the chains saved in OUT/chains.h5")
-    fit.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    fit.add_argument("--out", required=True, help="output directory")
+    fit.add_argument("--model", default="q1", help="preset (q1, q2, q3) or mechanisms joined by '+' "
+                                                   "(bayesbeam models lists them)")
+    add_effect_option(fit)
+    add_fit_options(fit)
+    fit.add_argument("--walkers", type=positive_int, metavar="N", help="emcee walkers (default: max(4 x parameters, 16))")
+    fit.add_argument("--max-steps", type=positive_int, metavar="N", help="cap on steps per walker (default: 20000)")
+    add_run_options(fit)
+    add_out_options(fit, "posterior.nc, summary.json, chains.h5 and plots",
+                    resume="continue the chains saved in OUT/chains.h5")
+
+
+def add_fit_options(p) -> None:
+    """The fitted window and band, the discretisation, the noise model, the force channel and the
+    seed: the options of a fit, shared by every command that fits (a --config file's settings
+    apply where an option is not given)."""
+    p.add_argument("--config", metavar="FILE", help="fit file (TOML): [fit] settings and [prior.NAME] tables (default: none)")
+    p.add_argument("--n-intervals", type=positive_int, metavar="N", help="spline intervals N (default: automatic)")
+    p.add_argument("--start", type=float, metavar="SECONDS", help="start of the fitted window (s; default: the record's start, "
+                                                "or the free decay's)")
+    p.add_argument("--stop", type=float, metavar="SECONDS", help="end of the fitted window (s; default: the record's end)")
+    p.add_argument("--max-frequency", type=float, metavar="HZ",
+                   help="top of the fitted band (Hz; default: 0.38 fs, the record is decimated to suit)")
+    p.add_argument("--noise", choices=NOISE_MODELS, help="the likelihood's noise model per channel "
+                                                        "(default: white)")
+    p.add_argument("--no-force-noise", action="store_true",
+                   help="do not marginalise the response driven by the force channel's noise inside the impact window")
+    add_force_window_option(p)
+    add_seed_option(p)
 
 
 def fit_config(args):
@@ -40,7 +60,7 @@ def fit_config(args):
     overrides = {"start": args.start, "stop": args.stop, "max_frequency": args.max_frequency,
                  "n_intervals": args.n_intervals, "noise": args.noise, "walkers": args.walkers,
                  "max_steps": args.max_steps, "seed": args.seed,
-                 "effects": tuple(args.effect) if args.effect else None,
+                 "force_window": False if args.no_force_window else None,
                  "force_noise": False if args.no_force_noise else None}
     return (load_fit_config(args.config, **overrides) if args.config
             else FitConfig(**{k: v for k, v in overrides.items() if v is not None}))
@@ -51,12 +71,14 @@ def run(args) -> int:
     from bayesbeam.inference.sampler import stderr_progress
     from bayesbeam.report.fit_outputs import write_fit
 
-    rec = load_recording(args.recording)
+    out = output_folder(args)
+    model = model_spec(args.model, args.effect)
     config = fit_config(args)
-    out = Path(args.out)
+    pool = _executor(args)
+    rec = load_recording(args.recording)
     out.mkdir(parents=True, exist_ok=True)
     log = None if args.quiet else stderr_progress
-    result = fit(rec, args.model, config, pool=_executor(args), backend_path=out / "chains.h5",
+    result = fit(rec, model, config, pool=pool, backend_path=out / "chains.h5",
                  resume=args.resume, log=log, progress=log)
     paths = write_fit(result, out)
     summary = result.summary
@@ -71,18 +93,22 @@ def run(args) -> int:
 
 
 def _executor(args):
-    """The pool for parallel likelihood evaluations: local processes (default) or MPI."""
+    """The pool of the chains' likelihood evaluations: none (serial), local processes or MPI ranks.
+    The walkers of a step are evaluated together, so the pool must hold the posterior in each
+    worker: a Dask cluster, which runs whole jobs, is for compare, batch and diagnose."""
     if args.executor == "mpi":
-        try:
-            from mpi4py.futures import MPIPoolExecutor
-        except ImportError:
-            raise UsageError("--executor mpi needs mpi4py (pip install mpi4py) and an MPI launch, "
-                             "e.g. mpiexec -n 8 python -m mpi4py.futures -m bayesbeam.cli fit ...") from None
+        from bayesbeam.executors import mpi_pool_class
         from bayesbeam.inference.sampler import init_worker
 
+        pool_class = mpi_pool_class()
         # the posterior is only known after preparation: fit() passes it through _pool_for
-        return _DeferredPool(lambda post: MPIPoolExecutor(initializer=init_worker, initargs=(post,)))
-    return args.processes if args.processes > 1 else None
+        return _DeferredPool(lambda post: pool_class(initializer=init_worker, initargs=(post,)))
+    if args.executor not in ("serial", "local"):
+        raise UsageError(f"fit --executor {args.executor}: fit evaluates its walkers' likelihoods in a pool "
+                         "on this machine or over MPI, not on a Dask cluster. Fix: --executor local or mpi "
+                         "(compare, batch and diagnose take a Dask scheduler address)")
+    processes = 1 if args.executor == "serial" else args.processes or os.cpu_count() or 1
+    return processes if processes > 1 else None
 
 
 class _DeferredPool:

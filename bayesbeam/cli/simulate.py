@@ -6,7 +6,18 @@ from dataclasses import replace
 import numpy as np
 
 from bayesbeam import __version__
-from bayesbeam.cli.common import parse_assignments
+from bayesbeam.cli.common import (
+    DEFAULT_SEED,
+    UsageError,
+    add_effect_option,
+    add_force_window_option,
+    add_out_options,
+    add_seed_option,
+    model_spec,
+    output_folder,
+    parse_assignments,
+    positive_int,
+)
 from bayesbeam.io import load_recording, write_recording, write_uff58
 from bayesbeam.model import BeamModel
 
@@ -15,20 +26,20 @@ HELP = "simulate a recording's sensors under a damping model"
 
 def add_arguments(sim) -> None:
     sim.add_argument("recording", help="recording directory (beam.toml + recording.csv)")
-    sim.add_argument("--model", default="q1", help="preset (q1, q2, q3) or mechanisms joined by '+'")
-    sim.add_argument("--effect", action="append", metavar="EFFECT",
-                     help="add a missing-physics effect (repeatable), e.g. --effect root_compliance")
+    sim.add_argument("--model", default="q1", help="preset (q1, q2, q3) or mechanisms joined by '+' "
+                                                   "(bayesbeam models lists them)")
+    add_effect_option(sim)
     sim.add_argument("--set", action="append", metavar="NAME=VALUE",
-                     help="parameter value in SI units (repeatable); EI defaults to the nominal E*I")
-    sim.add_argument("--n-intervals", type=int, default=16, help="spline intervals N (default 16)")
-    sim.add_argument("--noise", type=float, default=0.0,
-                     help="add Gaussian noise, sd as a fraction of each channel's RMS (e.g. 0.02)")
-    sim.add_argument("--seed", type=int, default=None, help="random seed for --noise")
-    sim.add_argument("--no-force-window", action="store_true",
-                     help="use the whole force channel (default: impact force window)")
-    sim.add_argument("--modes", type=int, default=9, help="modes to print (default 9)")
-    sim.add_argument("--out", required=True, help="output recording directory")
-    sim.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+                     help="parameter value in SI units, repeatable (default: EI = the nominal E*I; "
+                          "every other parameter must be given)")
+    sim.add_argument("--n-intervals", type=positive_int, default=16, metavar="N", help="spline intervals N")
+    sim.add_argument("--noise-level", type=float, default=0.0, metavar="FRACTION",
+                     help="add Gaussian noise of standard deviation FRACTION x each channel's RMS (e.g. 0.02)")
+    add_seed_option(sim)
+    add_force_window_option(sim)
+    sim.add_argument("--print-modes", type=positive_int, default=9, metavar="N",
+                     help="modes whose frequency and damping ratio are printed")
+    add_out_options(sim, "the simulated recording", recording=True)
     sim.add_argument("--uff", action="store_true", help="also write OUT/recording.uff (UFF58 time histories)")
 
 
@@ -49,26 +60,29 @@ def add_noise(signals: np.ndarray, fraction: float, seed: int | None) -> np.ndar
 
 
 def run(args) -> int:
+    output_folder(args)
+    if args.noise_level < 0:
+        raise UsageError(f"--noise-level {args.noise_level}: must be >= 0 (a fraction of each channel's RMS)")
     rec = load_recording(args.recording)
-    model = BeamModel.from_recording(rec, args.model, args.n_intervals,
-                                     force_window=False if args.no_force_window else None,
-                                     effects=args.effect)
+    model = BeamModel.from_recording(rec, model_spec(args.model, args.effect), args.n_intervals,
+                                     force_window=False if args.no_force_window else None)
     params = {"EI": rec.beam.nominal_EI, **parse_assignments(args.set)}
     values = model.values(params)
     initial = model.fit_initial(params) if rec.excitation.kind == "free_decay" else None
     signals = model.simulate(params, initial)
-    if args.noise:
-        signals = add_noise(signals, args.noise, args.seed)
+    seed = DEFAULT_SEED if args.seed is None else args.seed
+    if args.noise_level:
+        signals = add_noise(signals, args.noise_level, seed)
     provenance = {"bayesbeam": __version__, "source": str(rec.source), "model": model.name,
-                  "n_intervals": model.n_intervals, "noise_fraction_of_rms": float(args.noise or 0.0),
+                  "n_intervals": model.n_intervals, "noise_fraction_of_rms": float(args.noise_level),
                   **{k: v for k, v in values.items() if np.isfinite(v)}}
-    if args.seed is not None:
-        provenance["seed"] = args.seed
+    if args.noise_level:
+        provenance["seed"] = seed
     out = replace(rec.with_signals(signals), extra={**rec.extra, "simulation": provenance})
     path = write_recording(out, args.out, overwrite=args.overwrite)
     print(f"model {model.name} (N = {model.n_intervals}) on {rec.source}")
     print(", ".join(f"{k} = {v:.6g} {model.units.get(k, '')}".rstrip() for k, v in values.items()))
-    print(modal_table(model, params, args.modes))
+    print(modal_table(model, params, args.print_modes))
     print(f"wrote {path}")
     if args.uff:
         print(f"wrote {write_uff58(out, path / 'recording.uff')}")

@@ -30,7 +30,7 @@ MAX_FREQUENCY = 150.0
 
 def command(name: str, truth: dict) -> list[str]:
     return ["diagnose", str(RECORDINGS / name), "--model", truth["damping_model"], "--max-frequency",
-            str(MAX_FREQUENCY), "--executor", "serial", "--quiet", "--out", str(OUT / name)]
+            str(MAX_FREQUENCY), "--executor", "serial", "--quiet", "--overwrite", "--out", str(OUT / name)]
 
 
 def run_one(name: str) -> tuple[str, float, int]:

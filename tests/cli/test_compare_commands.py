@@ -38,7 +38,7 @@ def test_compare_writes_json_report_and_posteriors(recordings, tmp_path, capsys)
 @pytest.mark.parametrize("argv, message", [
     (["--models", "q1,wet_towel"], "wet_towel"),
     (["--models", "air,q1", "--repeats", "1"], "at least 2"),
-    (["--models", "air", "--executor", "cluster"], "tcp://host:8786"),
+    (["--models", "q2", "--effect", "quadratic_drag"], "nonlinear effect cannot carry a memory mechanism"),
 ])
 def test_bad_input_exits_2_naming_it(recordings, tmp_path, capsys, argv, message):
     assert main(["compare", recordings[0], *argv, "--out", str(tmp_path / "x")]) == 2
@@ -56,6 +56,8 @@ def test_batch_on_a_dask_cluster_writes_one_table_and_resumes(recordings, tmp_pa
         assert all(r["best"] == str(r["model"] == "q1") for r in rows)
         first = (out / "hit_a" / "comparison.json").stat().st_mtime_ns
         table = json.loads((out / "batch.json").read_text())
-        assert main([*argv[:-2], "--out", str(out)]) == 0          # again: everything is resumed
+        assert main(argv) == 2                                      # a written campaign is not rerun silently
+        assert "--overwrite or --resume" in capsys.readouterr().err
+        assert main([*argv, "--resume"]) == 0                       # again: everything is resumed
         assert (out / "hit_a" / "comparison.json").stat().st_mtime_ns == first
         assert json.loads((out / "batch.json").read_text()) == table

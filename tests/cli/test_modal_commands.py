@@ -119,8 +119,9 @@ def test_era_chains_into_ema_and_writes_uff(tmp_path, capsys):
     np.testing.assert_allclose(uff_sets[-1]["data"], rec.signals[:, 0], rtol=1e-11)
     modes = pyuff.UFF(str(out / "modes.uff")).read_sets()
     assert [s["mode_n"] for s in modes if s["type"] == 55] == list(range(1, 10))
-    assert main(["ema", str(out / "modal.csv"), "--beam", str(HAMMER / "beam.toml"), "--out", str(out)]) == 0
-    assert json.loads((out / "ema.json").read_text())["modes"] == list(range(1, 10))
+    ema = tmp_path / "ema"
+    assert main(["ema", str(out / "modal.csv"), "--beam", str(HAMMER / "beam.toml"), "--out", str(ema)]) == 0
+    assert json.loads((ema / "ema.json").read_text())["modes"] == list(range(1, 10))
 
 
 def test_era_refusals_exit_2(tmp_path, capsys):
