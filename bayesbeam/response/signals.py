@@ -223,7 +223,7 @@ def force_noise(recording, factor: int = 1) -> ForceNoise | None:
 
 
 def _pulse_times(recording, pulses) -> str:
-    return ", ".join(f"{recording.time[p.peak_index]:.4g} s ({p.width} samples)" for p in pulses)
+    return ", ".join(f"{recording.time[p.peak_index]:.4g} s ({p.width} sample{'s' * (p.width > 1)})" for p in pulses)
 
 
 def _report_pulses(recording, pulses: ForcePulses) -> None:
@@ -235,7 +235,7 @@ def _report_pulses(recording, pulses: ForcePulses) -> None:
                       stacklevel=3)
     if pulses.spikes:
         warnings.warn(f"{where}: isolated spike(s) in the force channel at {_pulse_times(recording, pulses.spikes)} "
-                      f"(one or two samples, no pulse shape) are left out of the force window.", stacklevel=3)
+                      f"without a pulse's shape: left out of the force window.", stacklevel=3)
 
 
 def _warn_many_latent(recording, hits, n_latent: int, factor: int) -> None:
