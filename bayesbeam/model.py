@@ -119,25 +119,29 @@ class BeamModel:
         A preset (``"q1"``, ``"q2"``, ``"q3"``), a ``+``-joined string or a list of names; effect
         names may be joined in too (``"q3+root_compliance"``, see :func:`split_model`).
     n_intervals : int
-        Spline grid intervals N (the model has N+1 degrees of freedom).
+        Spline grid intervals N (the model has N + degree - 2 degrees of freedom).
     force_window : bool or None
         Apply the impact force window (:func:`bayesbeam.response.signals.impact_window`) to a
         measured force; ``None`` (default) means on for ``kind = "force"`` recordings.
     effects : str or sequence of str, optional
         Missing-physics effects (:mod:`bayesbeam.physics.effects`) added to the damping model.
+    degree : int
+        Polynomial degree of the B-splines: 3 (cubic, the paper's) or higher; quintic splines
+        reach a given eigenvalue accuracy with fewer degrees of freedom
+        (:mod:`bayesbeam.physics.basis`).
     """
 
     def __init__(self, recording: Recording, mechanisms="q1", n_intervals: int = 16,
-                 force_window: bool | None = None, effects=None):
+                 force_window: bool | None = None, effects=None, *, degree: int = 3):
         self.recording = recording
         # bound to the recording: a mechanism may read its description (thermoelastic: [material])
         self.mechanisms, self.effects = (tuple(c.bind(recording) for c in group)
                                          for group in resolve_model(mechanisms, effects))
         _check_requirements(self)
-        self.n_intervals = int(n_intervals)
+        self.n_intervals, self.degree = int(n_intervals), int(degree)
         beam, tip = recording.beam, recording.tip
         root = "pinned" if any(e.root == "pinned" for e in self.effects) else "clamped"
-        self.ops = BeamOperators(SplineBasis(beam.length, self.n_intervals, root), beam.rho_a,
+        self.ops = BeamOperators(SplineBasis(beam.length, self.n_intervals, root, self.degree), beam.rho_a,
                                  tip.mass, tip.rotary_inertia)
         exc = recording.excitation
         self.setup = Setup(tuple(s.location for s in recording.sensors),
@@ -152,9 +156,9 @@ class BeamModel:
 
     @classmethod
     def from_recording(cls, recording: Recording, mechanisms="q1", n_intervals: int = 16,
-                       force_window: bool | None = None, effects=None) -> BeamModel:
+                       force_window: bool | None = None, effects=None, *, degree: int = 3) -> BeamModel:
         """The model of ``recording`` under ``mechanisms`` and ``effects`` (see the class docstring)."""
-        return cls(recording, mechanisms, n_intervals, force_window, effects)
+        return cls(recording, mechanisms, n_intervals, force_window, effects, degree=degree)
 
     # ------------------------------------------------------------------ parameters
     @property

@@ -13,8 +13,8 @@ the parameters later:
 The mass matrix is :math:`M = \rho A\, M_0 + m_T\, e e^T + J\, e' e'^T` with
 :math:`e = B(l)`, :math:`e' = B'(l)`: the tip body's inertia enters at :math:`x = l`, which is
 how the weak form carries the free-end conditions (4)-(5) of the paper. The elastic stiffness is
-:math:`EI\, K_0`. All integrands are polynomials of degree at most 6 on each interval, so
-4-point Gauss-Legendre quadrature is exact.
+:math:`EI\, K_0`. With splines of degree p all integrands are polynomials of degree at most 2p
+on each interval, so (p+1)-point Gauss-Legendre quadrature is exact.
 """
 from __future__ import annotations
 
@@ -54,7 +54,7 @@ class BeamOperators:
 
     @cached_property
     def _gauss(self):
-        x, w = self.basis.quadrature(4)
+        x, w = self.basis.quadrature()
         return x, w, [self.basis.evaluate(x, d) for d in (0, 1, 2)]
 
     def _gram(self, deriv: int) -> np.ndarray:

@@ -1,63 +1,108 @@
-r"""Cubic B-spline Galerkin basis on a uniform grid, modified at the root.
+r"""B-spline Galerkin basis of degree p on a uniform grid, modified at the root.
 
-The standard cubic B-splines :math:`\tilde B_j`, :math:`j = -1, \dots, N+1`, on the grid
-:math:`x_i = i h`, :math:`h = l/N`, span the :math:`C^2` cubic splines (dimension :math:`N+3`).
-Only :math:`\tilde B_{-1}, \tilde B_0, \tilde B_1` are non-zero at :math:`x = 0`, with values
-:math:`(1/6, 2/3, 1/6)` and slopes :math:`(-1, 0, 1)/(2h)`.
+The standard (cardinal) B-splines :math:`\tilde B_j` of degree p on the grid :math:`x_i = i h`,
+:math:`h = l/N`, extended by uniform knots beyond both ends, span the :math:`C^{p-1}` splines of
+degree p on [0, l] (dimension :math:`N+p`). Column j of :meth:`SplineBasis.standard` is the
+spline supported on :math:`[(j-p)h, (j+1)h]`; columns :math:`0, \dots, p-1` are the ones that
+do not vanish at :math:`x = 0`. The default, p = 3, is the paper's cubic basis; every odd or
+even :math:`p \ge 3` is admissible (:math:`C^2 \subset H^2`).
 
 *Clamped root* (:math:`u(0) = u_x(0) = 0`, the paper's space
-:math:`V = \{\psi \in H^2 : \psi(0) = \psi'(0) = 0\}`): a combination
-:math:`c_{-1}\tilde B_{-1} + c_0 \tilde B_0 + c_1 \tilde B_1` vanishes with its slope iff
-:math:`c_{-1} = c_1` and :math:`c_{-1}/6 + 2c_0/3 + c_1/6 = 0`, i.e. it is a multiple of
+:math:`V = \{\psi \in H^2 : \psi(0) = \psi'(0) = 0\}`): the combinations of the p root splines
+that vanish with their slope form a space of dimension p - 2. Its basis here: each root spline
+:math:`k = 2, \dots, p-1` plus the multiples of the first two that cancel its value and slope,
 
-.. math:: B_0 = \tilde B_{-1} - \tfrac12 \tilde B_0 + \tilde B_1 ,
+.. math:: B_k = \tilde B_k + c_{0k} \tilde B_0 + c_{1k} \tilde B_1 ,
 
-and the basis is :math:`\{B_0, \tilde B_2, \dots, \tilde B_{N+1}\}`: :math:`N+1` functions, as in the
+(columns counted from 0). The basis is :math:`\{B_2, \dots, B_{p-1}, \tilde B_p, \dots,
+\tilde B_{N+p-1}\}`: :math:`N + p - 2` functions. For p = 3 the one root function is
+:math:`\tilde B_0 - \tfrac12 \tilde B_1 + \tilde B_2`, the basis has N + 1 functions, as in the
 paper's eq. (35). (The paper's printed modification formulas are garbled: its
 :math:`\tilde B_0 - 4\tilde B_{-1}` enforces :math:`u(0) = 0` only.)
 
 *Pinned root* (:math:`u(0) = 0`, slope free; used when the root is a rotational spring): the
-clamped basis plus :math:`\tilde B_{-1} - \tilde B_1`, which vanishes at 0 with slope
-:math:`-1/h`: :math:`N+2` functions.
+clamped basis plus :math:`\tilde B_0 - \tilde B_{p-1}`, which vanishes at 0 (the root splines
+are mirror images about x = 0) with a non-zero slope: :math:`N + p - 1` functions.
 
 The free end is natural: all splines non-zero at :math:`x = l` are kept, so the free-end
 conditions (including damping moments) come out of the weak form.
+
+Values and derivatives are evaluated by the Cox-de Boor recursion on one interval's local
+coordinate (the pieces are the same on every interval of a uniform grid): only products and
+sums of non-negative numbers for the values, so no digits are lost at any degree.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from fractions import Fraction
+from functools import cache, cached_property
 
 import numpy as np
 
 ROOTS = ("clamped", "pinned")
+#: admissible spline degrees: C^(p-1) splines are in H^2 for p >= 3; above 9 the gain per degree
+#: of freedom is spent on the conditioning of the mass and stiffness matrices
+DEGREES = range(3, 10)
 
 
-def _local_pieces(t: np.ndarray, deriv: int) -> np.ndarray:
-    """Values (or t-derivatives) of the four cubic B-spline pieces on one element.
+def _local_pieces(t: np.ndarray, deriv: int, degree: int = 3) -> np.ndarray:
+    """Values (or t-derivatives) of the p + 1 B-spline pieces of degree p on one interval.
 
-    Column k is the piece of :math:`\\tilde B_{i-1+k}` on element i, as a function of the local
-    coordinate t in [0, 1].
+    Column k is the piece of the standard spline ``j = i + k`` on interval i (the spline that
+    ends at the interval's right end is k = 0), as a function of the local coordinate t in
+    [0, 1]. Cox-de Boor on unit knots: :math:`N_{k,d} = ((t - k + d) N_{k-1,d-1} +
+    (k + 1 - t) N_{k,d-1}) / d`; a derivative is the difference of two neighbours one degree
+    lower, :math:`N'_{k,d} = N_{k-1,d-1} - N_{k,d-1}`.
     """
-    t = np.asarray(t, dtype=float)
-    s = 1.0 - t
-    if deriv == 0:
-        cols = (s**3 / 6, (3 * t**3 - 6 * t**2 + 4) / 6, (-3 * t**3 + 3 * t**2 + 3 * t + 1) / 6, t**3 / 6)
-    elif deriv == 1:
-        cols = (-(s**2) / 2, 1.5 * t**2 - 2 * t, -1.5 * t**2 + t + 0.5, t**2 / 2)
-    elif deriv == 2:
-        cols = (s, 3 * t - 2, 1 - 3 * t, t)
-    elif deriv == 3:
-        one = np.ones_like(t)
-        cols = (-one, 3 * one, -3 * one, one)
-    else:
-        raise ValueError(f"derivative order {deriv} not available for cubic splines (0 to 3)")
-    return np.stack(cols, axis=-1)
+    if not 0 <= deriv <= degree:
+        raise ValueError(f"derivative order {deriv} not available for splines of degree {degree} "
+                         f"(0 to {degree})")
+    t = np.asarray(t, dtype=float)[..., None]
+    values = np.ones_like(t)
+    for d in range(1, degree - deriv + 1):
+        k = np.arange(d + 1)
+        lower = np.concatenate([np.zeros_like(t), values], axis=-1)       # N_{k-1, d-1}
+        same = np.concatenate([values, np.zeros_like(t)], axis=-1)        # N_{k, d-1}
+        values = ((t - k + d) * lower + (k + 1 - t) * same) / d
+    for _ in range(deriv):
+        values = (np.concatenate([np.zeros_like(t), values], axis=-1)
+                  - np.concatenate([values, np.zeros_like(t)], axis=-1))
+    return values
+
+
+@cache
+def _root_combination(degree: int) -> np.ndarray:
+    """(p, p - 2): the root splines' coefficients of the clamped root functions B_2 .. B_{p-1}.
+
+    Solved in exact rational arithmetic (values and slopes of the root splines at x = 0 are
+    rationals), so the cubic's (1, -1/2, 1) comes out exactly.
+    """
+    value, slope = _root_rows(degree)
+    det = value[0] * slope[1] - value[1] * slope[0]
+    out = np.zeros((degree, degree - 2))
+    for col, k in enumerate(range(2, degree)):
+        # c0 v0 + c1 v1 = -v_k and c0 s0 + c1 s1 = -s_k (Cramer's rule)
+        c0 = (-value[k] * slope[1] + value[1] * slope[k]) / det
+        c1 = (-value[0] * slope[k] + value[k] * slope[0]) / det
+        out[0, col], out[1, col], out[k, col] = float(c0), float(c1), 1.0
+    return out
+
+
+def _root_rows(degree: int) -> tuple[list[Fraction], list[Fraction]]:
+    """Exact values and t-slopes at t = 0 of the first p pieces (the root splines at x = 0)."""
+    values = [Fraction(1)]
+    for d in range(1, degree + 1):
+        padded = [Fraction(0), *values, Fraction(0)]
+        values = [((d - k) * padded[k] + (k + 1) * padded[k + 1]) / d for k in range(d + 1)]
+        if d == degree - 1:
+            lower = [Fraction(0), *values, Fraction(0)]
+            slopes = [lower[k] - lower[k + 1] for k in range(degree + 1)]
+    return values[:degree], slopes[:degree]
 
 
 @dataclass(frozen=True)
 class SplineBasis:
-    """Modified cubic B-spline basis on [0, length] with ``n_intervals`` uniform intervals.
+    """Modified B-spline basis of degree ``degree`` on [0, length] with ``n_intervals`` uniform intervals.
 
     Parameters
     ----------
@@ -67,11 +112,14 @@ class SplineBasis:
         Number of grid intervals N (the paper's approximation index).
     root : {"clamped", "pinned"}
         Essential conditions at x = 0: u = u_x = 0, or u = 0 only.
+    degree : int
+        Polynomial degree p of the splines, 3 (cubic, the paper's) to 9.
     """
 
     length: float
     n_intervals: int
     root: str = "clamped"
+    degree: int = 3
 
     def __post_init__(self):
         if self.n_intervals < 2:
@@ -80,6 +128,9 @@ class SplineBasis:
             raise ValueError(f"root must be one of {ROOTS}, got {self.root!r}")
         if not self.length > 0:
             raise ValueError(f"length must be positive, got {self.length}")
+        if self.degree not in DEGREES:
+            raise ValueError(f"degree must be an integer from {DEGREES.start} to {DEGREES.stop - 1}, "
+                             f"got {self.degree!r}")
 
     @property
     def h(self) -> float:
@@ -88,40 +139,52 @@ class SplineBasis:
 
     @property
     def size(self) -> int:
-        """Number of basis functions (degrees of freedom)."""
-        return self.n_intervals + (1 if self.root == "clamped" else 2)
+        """Number of basis functions (degrees of freedom): N + p - 2 clamped, N + p - 1 pinned."""
+        return self.n_intervals + self.degree - (2 if self.root == "clamped" else 1)
+
+    @property
+    def pieces(self) -> int:
+        """Splines non-zero on one interval: p + 1."""
+        return self.degree + 1
+
+    @property
+    def quadrature_points(self) -> int:
+        """Gauss points per interval that integrate the mass form (degree 2p) exactly: p + 1."""
+        return self.degree + 1
 
     @cached_property
     def combination(self) -> np.ndarray:
-        """Matrix C (N+3, size): basis function k is sum_j C[j, k] * B~_{j-1}."""
-        n_std = self.n_intervals + 3
-        c = np.zeros((n_std, self.size))
-        c[0:3, 0] = (1.0, -0.5, 1.0)
-        c[3:, 1 : self.n_intervals + 1] = np.eye(self.n_intervals)
+        """Matrix C (N+p, size): basis function k is sum_j C[j, k] * (standard spline j)."""
+        p, n = self.degree, self.n_intervals
+        c = np.zeros((n + p, self.size))
+        c[:p, : p - 2] = _root_combination(p)
+        c[p:, p - 2 : p - 2 + n] = np.eye(n)
         if self.root == "pinned":
-            c[0, -1], c[2, -1] = 1.0, -1.0
+            c[0, -1], c[p - 1, -1] = 1.0, -1.0
         return c
 
     def standard(self, x, deriv: int = 0) -> np.ndarray:
-        """Standard B-splines (or their x-derivatives) at points x: array (len(x), N+3)."""
+        """Standard B-splines (or their x-derivatives) at points x: array (len(x), N+p)."""
         x = np.atleast_1d(np.asarray(x, dtype=float))
         if np.any(x < -1e-12 * self.length) or np.any(x > self.length * (1 + 1e-12)):
             raise ValueError(f"points must lie in [0, {self.length}] m")
         u = np.clip(x / self.h, 0.0, self.n_intervals)
         elem = np.minimum(np.floor(u).astype(int), self.n_intervals - 1)
-        pieces = _local_pieces(u - elem, deriv) / self.h**deriv
-        out = np.zeros((x.size, self.n_intervals + 3))
+        pieces = _local_pieces(u - elem, deriv, self.degree) / self.h**deriv
+        out = np.zeros((x.size, self.n_intervals + self.degree))
         rows = np.arange(x.size)[:, None]
-        out[rows, elem[:, None] + np.arange(4)] = pieces
+        out[rows, elem[:, None] + np.arange(self.pieces)] = pieces
         return out
 
     def evaluate(self, x, deriv: int = 0) -> np.ndarray:
         """Basis functions (or derivatives) at points x: array (len(x), size)."""
         return self.standard(x, deriv) @ self.combination
 
-    def quadrature(self, points_per_interval: int = 4) -> tuple[np.ndarray, np.ndarray]:
-        """Gauss-Legendre points and weights on every interval (exact to degree 2n-1 per interval)."""
-        g, w = np.polynomial.legendre.leggauss(points_per_interval)
+    def quadrature(self, points_per_interval: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Gauss-Legendre points and weights on every interval (exact to degree 2n-1 per interval);
+        default n = p + 1 (:attr:`quadrature_points`)."""
+        n_points = self.quadrature_points if points_per_interval is None else points_per_interval
+        g, w = np.polynomial.legendre.leggauss(n_points)
         left = np.arange(self.n_intervals)[:, None] * self.h
         x = (left + (g + 1.0) * self.h / 2).ravel()
         weights = np.tile(w * self.h / 2, self.n_intervals)

@@ -25,12 +25,13 @@ Small-b limit: with :math:`v'(\xi) \approx v'(x) + v''(x)(\xi - x)` and
 
 Assembly (the same quadrature sums, regrouped; the result differs only by round-off). The
 grid is uniform and every interval carries the same Gauss rule, so with points
-:math:`x_{e,i}` (interval e, local point i), local weights :math:`w_i` and the four cubic
-pieces' slopes :math:`P_{i\alpha}` (the same on every interval), H is block Toeplitz:
+:math:`x_{e,i}` (interval e, local point i), local weights :math:`w_i` and the slopes
+:math:`P_{i\alpha}` of the q = p + 1 spline pieces of degree p (the same on every interval),
+H is block Toeplitz:
 the block of intervals (e, e+k) is :math:`T_k[i,j] = h(x_{0,i}, x_{k,j})` and that of (e+k, e)
 is :math:`T_k^T`. Only the :math:`N p^2` exponentials of :math:`T_0 .. T_{N-1}` are evaluated
 (not :math:`(N p)^2`), and in the standard B-spline coordinates (interval e, piece alpha) the
-inner matrix reduces to 4 x 4 blocks,
+inner matrix reduces to q x q blocks,
 
 .. math::
 
@@ -47,8 +48,8 @@ at most 7e-15 of max |D| over N = 2..128, b = 0.005..50 m; the bracket form erre
 7e-12 at N = 2, b = 0.005 m). Everything that does not depend on (a, b) (points, weights,
 slopes, squared distances, the linear maps, the layout of X, EC) is computed once per (basis,
 points per interval) and cached; D is linear in a, so a only scales the result. This takes
-about 40 us per call at N = 16, b = 0.18 m (p = 8), against 210 us for the dense 128 x 128
-kernel.
+about 40 us per call at N = 16, b = 0.18 m (8 Gauss points per interval, cubic splines),
+against 210 us for the dense 128 x 128 kernel.
 """
 import math
 from functools import lru_cache
@@ -80,7 +81,7 @@ class _Assembly:
     """The (a, b)-independent part of D for one basis and one Gauss rule (see the module doc).
 
     Per call only T_k = exp(-d_k^2 / 2b^2) changes, and everything after it is linear in T_k:
-    one product ``t @ maps`` gives, for every offset k, the 16 numbers of each of -Q_k,
+    one product ``t @ maps`` gives, for every offset k, the q * q numbers of each of -Q_k,
     P^T diag(w T_k w) P, P^T diag(w T_k^T w) P and the within-interval term; a second sums the
     diagonal blocks; a gather lays out X; two products project it onto the basis.
     """
@@ -88,7 +89,7 @@ class _Assembly:
     SLOTS = 4     # per offset k: -Q_k, row-sum term, column-sum term, within-interval term
 
     def __init__(self, basis: SplineBasis, n_points: int):
-        n, p = basis.n_intervals, n_points
+        n, p, q = basis.n_intervals, n_points, basis.pieces
         x, w = basis.quadrature(p)
         # d[k, i, j] = x_{0,i} - x_{k,j}: the differences in the blocks (e, e+k) of H
         d = np.subtract.outer(x[:p], x).reshape(p, n, p).transpose(1, 0, 2)
@@ -96,17 +97,17 @@ class _Assembly:
         # and a non-zero distance keeps their T finite for any b (0 * inf would give nan)
         self.minus_half_d2 = np.ascontiguousarray((-0.5 * d**2).reshape(n, p * p))
         w = w[:p]                                                        # local weights
-        slopes = basis.standard(x[:p], 1)[:, :4]                         # P (p, 4), interval 0
+        slopes = basis.standard(x[:p], 1)[:, :q]                         # P (p, q), interval 0
         wp = w[:, None] * slopes
-        pp = w[:, None, None] * slopes[:, :, None] * slopes[:, None, :]  # (p, 4, 4)
-        diff = slopes[:, None, :] - slopes[None, :, :]                   # P_i - P_j, (p, p, 4)
-        maps = np.empty((p, p, self.SLOTS, 4, 4))                        # [(i, j), slot, a, b]
+        pp = w[:, None, None] * slopes[:, :, None] * slopes[:, None, :]  # (p, q, q)
+        diff = slopes[:, None, :] - slopes[None, :, :]                   # P_i - P_j, (p, p, q)
+        maps = np.empty((p, p, self.SLOTS, q, q))                        # [(i, j), slot, a, b]
         maps[:, :, 0] = -wp[:, None, :, None] * wp[None, :, None, :]     # -> -Q_k
         maps[:, :, 1] = w[None, :, None, None] * pp[:, None]             # -> P^T diag(w T_k w) P
         maps[:, :, 2] = w[:, None, None, None] * pp[None, :]             # -> P^T diag(w T_k^T w) P
         maps[:, :, 3] = (0.5 * w[:, None, None, None] * w[None, :, None, None]
                          * diff[:, :, :, None] * diff[:, :, None, :])    # (k = 0) 1/2 sum w w T0 dP dP^T
-        self.maps = maps.reshape(p * p, self.SLOTS * 16)
+        self.maps = maps.reshape(p * p, self.SLOTS * q * q)
         # diagonal block e = sum over the rows (k, slot) of t @ maps: the within-interval term of
         # k = 0, the row-sum terms of k = 1 .. n-1-e and the column-sum terms of k = 1 .. e
         sums = np.zeros((n, n, self.SLOTS))
@@ -117,26 +118,27 @@ class _Assembly:
         self.sums = sums.reshape(n, n * self.SLOTS)
         # X[(e, alpha), (f, beta)] = buffer[index]; buffer = (t @ maps, the diagonal blocks)
         e, f = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-        alpha, beta = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
+        alpha, beta = np.meshgrid(np.arange(q), np.arange(q), indexing="ij")
         e, f = e[:, :, None, None], f[:, :, None, None]
-        k, ab, ba = np.abs(f - e), 4 * alpha + beta, 4 * beta + alpha
-        off = 16 * self.SLOTS * k + np.where(f > e, ab, ba)             # -Q_k or -Q_k^T
-        index = np.where(f == e, 16 * self.SLOTS * n + 16 * e + ab, off)
-        self.index = np.ascontiguousarray(index.transpose(0, 2, 1, 3).reshape(4 * n, 4 * n))
-        # EC: row (e, alpha) holds the modified basis' coefficients of B~_{e+alpha-1}
-        rows = (np.arange(n)[:, None] + np.arange(4)).ravel()
-        self.ec = np.ascontiguousarray(basis.combination[rows])          # (4n, size)
+        k, ab, ba = np.abs(f - e), q * alpha + beta, q * beta + alpha
+        off = q * q * self.SLOTS * k + np.where(f > e, ab, ba)          # -Q_k or -Q_k^T
+        index = np.where(f == e, q * q * (self.SLOTS * n + e) + ab, off)
+        self.index = np.ascontiguousarray(index.transpose(0, 2, 1, 3).reshape(q * n, q * n))
+        # EC: row (e, alpha) holds the modified basis' coefficients of standard spline e + alpha
+        rows = (np.arange(n)[:, None] + np.arange(q)).ravel()
+        self.ec = np.ascontiguousarray(basis.combination[rows])          # (q n, size)
         self.ect = np.ascontiguousarray(self.ec.T)
-        self.n = n
+        self.n, self.q2 = n, q * q
 
     def unit_matrix(self, b: float) -> np.ndarray:
         """D for a = b sqrt(2 pi), i.e. the kernel exp(-(x - xi)^2 / 2b^2); not symmetrised."""
-        n, m = self.n, 16 * self.SLOTS * self.n
+        n, q2 = self.n, self.q2
+        m = q2 * self.SLOTS * n
         b2 = b * b
         t = np.exp(self.minus_half_d2 * (1.0 / b2 if b2 > 0 else math.inf))   # T_0 .. T_{n-1}
-        buffer = np.empty(m + 16 * n)
+        buffer = np.empty(m + q2 * n)
         np.matmul(t, self.maps, out=buffer[:m].reshape(n, -1))
-        np.matmul(self.sums, buffer[:m].reshape(-1, 16), out=buffer[m:].reshape(n, 16))
+        np.matmul(self.sums, buffer[:m].reshape(-1, q2), out=buffer[m:].reshape(n, q2))
         return self.ect @ (buffer[self.index] @ self.ec)
 
 
