@@ -25,6 +25,7 @@ def _beam(path):
 
 def listing(beam=None) -> list[str]:
     """The lines ``bayesbeam models`` prints; default priors as numbers when ``beam`` is given."""
+    from bayesbeam.compare import MODEL_SETS
     from bayesbeam.inference.priors import NOISE_DEFAULTS, SCALES
     from bayesbeam.model import PARAMETER_UNITS
     from bayesbeam.physics.effects import REGISTRY as EFFECTS
@@ -33,6 +34,8 @@ def listing(beam=None) -> list[str]:
 
     lines = ["Presets (--model; the paper's parameter vectors):"]
     lines += [f"  {name:<4} = {' + '.join(mechanisms)}" for name, mechanisms in PRESETS.items()]
+    lines += ["", "Model sets (--models NAME in compare and batch):"]
+    lines += [f"  {name:<10} = {', '.join(models)}" for name, models in MODEL_SETS.items()]
     lines += ["", "Every model: the beam's bending stiffness"]
     lines += [_parameter_line(name, unit, beam) for name, unit in PARAMETER_UNITS.items()]
     lines += ["", "Damping mechanisms (--model, joined by '+', e.g. air+strain_rate):"]

@@ -359,6 +359,7 @@ def test_simulate_no_force_window_drives_the_beam_with_the_whole_force(tmp_path)
 
 # ---------------------------------------------------------------------------- bayesbeam models
 def test_models_lists_every_registry_entry_with_units_and_default_priors(capsys):
+    from bayesbeam.compare import MODEL_SETS
     from bayesbeam.inference.priors import DEFAULTS, describe_default
     from bayesbeam.physics.effects import REGISTRY as EFFECTS
     from bayesbeam.physics.mechanisms import PRESETS
@@ -368,6 +369,8 @@ def test_models_lists_every_registry_entry_with_units_and_default_priors(capsys)
     lines = capsys.readouterr().out.splitlines()
     for preset, mechanisms in PRESETS.items():
         assert any(line.split()[:1] == [preset] and " + ".join(mechanisms) in line for line in lines), preset
+    for name, models in MODEL_SETS.items():
+        assert any(line.split()[:1] == [name] and ", ".join(models) in line for line in lines), name
     for component in [*MECHANISMS.values(), *EFFECTS.values()]:
         assert any(line.split()[:1] == [component.name] for line in lines), component.name
         for name in component.parameters:
