@@ -52,13 +52,13 @@ def parameter_truth(name: str, truth: dict, effect_parameters: dict[str, str]) -
 
 
 def table(name: str) -> str:
-    from bayesbeam.model import resolve_model
+    from bayesbeam.physics.effects import resolve
     from bayesbeam.report.markdown import markdown_table, median_and_interval, significant
 
     summary = json.loads((HERE / name / "summary.json").read_text())
     truth = truth_values(study.ROOT / COMMANDS[name][1])
-    effects = {p: e.name for e in resolve_model("+".join([summary["model"], *summary["effects"]]))[1]
-               for p in e.parameters}
+    # summary["effects"] lists every effect of the fitted model, whether --effect or --model named it
+    effects = {p: e.name for e in resolve(summary["effects"]) for p in e.parameters}
     quantities = {**summary["parameters"], **{k: v for k, v in summary["noise"].items() if k.startswith("sigma_")}}
     rows = []
     for parameter, q in quantities.items():
