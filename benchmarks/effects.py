@@ -43,7 +43,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"          # one core, before numpy is imported
 
 import argparse
-import datetime
 import sys
 import time
 
@@ -378,8 +377,7 @@ def main(argv=None) -> int:
     rec = load_recording(c.RECORDING)
     dt, fs = rec.dt, rec.fs
     prefix = 0.25 if args.quick else 0.5
-    print(f"bayesbeam effects benchmark{' (--quick)' if args.quick else ''}, "
-          f"{datetime.datetime.now().isoformat(timespec='seconds')}")
+    print(f"bayesbeam effects benchmark{' (--quick)' if args.quick else ''}")
     print(f"machine: {c.machine()}")
     print("load average (1, 5, 15 min) at start: "
           + ", ".join(f"{x:.2f}" for x in os.getloadavg()))

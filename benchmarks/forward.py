@@ -26,7 +26,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"          # one core, before numpy is imported
 
 import argparse
-import datetime
 import sys
 import time
 
@@ -175,8 +174,7 @@ def main(argv=None) -> int:
     bb_repeat = 10 if quick else 30
     pyy_repeat = 1 if quick else 3
 
-    print(f"bayesbeam forward benchmark{' (--quick)' if quick else ''}, "
-          f"{datetime.datetime.now().isoformat(timespec='seconds')}")
+    print(f"bayesbeam forward benchmark{' (--quick)' if quick else ''}")
     print(f"machine: {c.machine()}")
     print(f"load average (1, 5, 15 min) at start: {', '.join(f'{x:.2f}' for x in os.getloadavg())}"
           " (other processes on the machine disturb the timings)")
@@ -335,7 +333,7 @@ def main(argv=None) -> int:
 
     # ------------------------------------------------------------------ targets
     print()
-    print("Targets (from the issue; printed, not asserted):")
+    print("Targets (printed, not asserted):")
     for e in rows:
         q, N = e["model"], e["N"]
         if N == 16:
