@@ -123,6 +123,9 @@ MECHANISM_KEYS = {"air": ("gamma",), "strain_rate": ("cdI",), "time_hysteresis":
                   "spatial_hysteresis": ("a", "b")}
 EFFECT_NAMES = {"k_theta": "root_compliance", "m_s": "sensor_mass", "P": "axial_load", "tau": "measurement_delay"}
 TIP_ACCELEROMETER = "accel_tip"
+NOTES = {"simulator": "tests.reference: Hermite cubic finite elements, exact exponential stepping",
+         "daq": "every channel passes one zero-phase Kaiser-windowed-sinc low-pass (flat to 1e-5 below 0.40 fs, "
+                "-100 dB above 0.50 fs) on a fine grid, then is sampled simultaneously"}
 
 
 def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float, EI: float | None = None,
@@ -156,7 +159,7 @@ def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float,
     else:
         described = Excitation("release", tip_load=excitation.tip_load)
     rec = Recording(beam, tip, described, sensors, np.arange(n) / fs, signals, force,
-                    extra={"notes": {"simulator": "tests.reference (Hermite FE, exact exponential stepping, FIR DAQ)"}})
+                    extra={"notes": NOTES})
     if out is not None:
         truth = _truth(name, case, excitation, fs, n, seed, sensors, sensor_sd, force_sd, noise, numerics)
         write_recording(rec, out, overwrite=True)
