@@ -46,7 +46,7 @@ def test_bad_input_exits_2_naming_it(recordings, tmp_path, capsys, argv, message
 
 
 def test_batch_on_a_dask_cluster_writes_one_table_and_resumes(recordings, tmp_path, capsys):
-    distributed = pytest.importorskip("distributed")
+    import distributed  # a dependency of bayesbeam itself: missing fails, never skips
     out = tmp_path / "campaign"
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
         argv = ["batch", *recordings, *CHEAP, "--executor", cluster.scheduler_address, "--out", str(out)]
