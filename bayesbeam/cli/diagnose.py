@@ -20,9 +20,9 @@ def add_arguments(p) -> None:
     p.add_argument("--model", help="baseline damping model, a preset or '+'-joined mechanisms (default: the best "
                                    "of the default models by evidence, from a comparison run first)")
     add_effect_option(p)
-    p.add_argument("--candidates", type=int, default=2, help="augmented models fitted per round")
-    p.add_argument("--rounds", type=int, default=2, help="effects added at most")
-    p.add_argument("--map-replicates", type=int, default=40, help="replicates of the mismatch map")
+    p.add_argument("--candidates", type=int, default=2, metavar="N", help="augmented models fitted per round")
+    p.add_argument("--rounds", type=int, default=2, metavar="N", help="effects added at most")
+    p.add_argument("--map-replicates", type=int, default=40, metavar="N", help="replicates of the mismatch map")
     add_evidence_options(p)
     add_out_options(p, "diagnosis.json, report.html, posteriors/")
 
