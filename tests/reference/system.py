@@ -55,6 +55,11 @@ class BeamCase:
             unknown = set(given) - set(known)
             if unknown:
                 raise ValueError(f"unknown {name} parameter(s) {sorted(unknown)}; known: {', '.join(known)}")
+        negative = {k: v for k, v in {**self.damping, **self.effects}.items()
+                    if (not np.isfinite(v) and k != "r") or (v < 0 and k != "P")}
+        if negative or min(self.length, self.rho_a, self.EI) <= 0 or min(self.m_T, self.J) < 0:
+            raise ValueError(f"parameters must be finite and non-negative (P may be negative), l, rho A and EI "
+                             f"positive; got {negative or (self.length, self.rho_a, self.EI, self.m_T, self.J)}")
         if ("alpha" in self.damping) != ("beta" in self.damping) or ("a" in self.damping) != ("b" in self.damping):
             raise ValueError("time hysteresis needs both alpha and beta, spatial hysteresis both a and b")
         if self.damping.get("r", np.inf) != np.inf:
