@@ -17,6 +17,8 @@ import sys
 import time
 from pathlib import Path
 
+import tables  # benchmarks/tables.py: the script's folder is first on sys.path
+
 from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare
 from bayesbeam.executors import LocalExecutor, SerialExecutor
 from bayesbeam.inference.fit import FitConfig
@@ -55,11 +57,11 @@ def main(argv=None) -> int:
           f"= {wall / TARGET_SECONDS:.2f} x the 15-minute target")
     print(f"parallel efficiency vs the baseline: {len(DEFAULT_MODELS) * baseline / (2 * wall):.2f}")
     print(f"ranking {summary['ranking']}; load at the end {os.getloadavg()}")
+    tables.record(baseline_seconds=baseline, wall_seconds=wall, target_seconds=TARGET_SECONDS,
+                  parallel_efficiency=len(DEFAULT_MODELS) * baseline / (2 * wall), ranking=summary["ranking"])
 
     return 0
 
 
 if __name__ == "__main__":
-    import tables
-
     sys.exit(tables.run("compare", main))

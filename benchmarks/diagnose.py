@@ -18,6 +18,8 @@ import sys
 import time
 from pathlib import Path
 
+import tables  # benchmarks/tables.py: the script's folder is first on sys.path
+
 from bayesbeam.compare import CompareConfig, compare
 from bayesbeam.diagnose import DiagnoseConfig, diagnose
 from bayesbeam.executors import LocalExecutor, SerialExecutor
@@ -57,11 +59,12 @@ def main(argv=None) -> int:
           f"{wall:.1f} s = {wall / TARGET_SECONDS:.2f} x the 20-minute target = {wall / baseline:.1f} x the baseline fit")
     print(f"baseline {summary['baseline']['model']}, added {summary['added'] or 'nothing'}, "
           f"unexplained {summary['unexplained']}; load at the end {os.getloadavg()}")
+    tables.record(baseline_seconds=baseline, wall_seconds=wall, target_seconds=TARGET_SECONDS,
+                  baseline_model=summary["baseline"]["model"], added=summary["added"],
+                  unexplained=summary["unexplained"])
 
     return 0
 
 
 if __name__ == "__main__":
-    import tables
-
     sys.exit(tables.run("diagnose", main))

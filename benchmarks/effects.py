@@ -52,6 +52,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 import _common as c
 import numpy as np
+import tables
 from scipy.integrate import solve_ivp
 
 from bayesbeam import BeamModel, load_recording
@@ -201,9 +202,16 @@ def print_header() -> None:
     print(f"{'model':44} {'form':>9}" + "".join(f" {f'N={N} ms':>9} {'ratio':>8}" for N in SIZES))
 
 
-def print_row(label: str, form: str, ms: dict, base: dict) -> None:
+def print_row(table: str, label: str, form: str, ms: dict, base: dict) -> None:
     """One row of those tables: ms per call at every N and its ratio to ``base`` at the same N."""
+    _record_row(table, {"model": label, "form": form, "ms": {str(N): ms[N] for N in SIZES},
+                        "ratio": {str(N): ms[N] / base[N] for N in SIZES}})
     print(f"{label:44} {form:>9}" + "".join(f" {ms[N]:9.2f} {ms[N] / base[N]:8.2f}" for N in SIZES))
+
+
+def _record_row(table: str, row: dict) -> None:
+    """Keep a printed row in the benchmark's results (benchmarks/results/effects.json)."""
+    tables.MEASURED.setdefault(table, []).append(row)
 
 
 def per_call(func, repeat: int) -> float:
@@ -234,7 +242,7 @@ def print_poles(rec) -> None:
         models = {N: BeamModel(rec, "q2", N, effects=effects) for N in SIZES}
         ms = {N: c.best_time(lambda m=m, p=p: m.system(p).poles(below), 10, 30) * 1e3 for N, m in models.items()}
         base = base or ms
-        print_row(label, models[16].system(p).form, ms, base)
+        print_row("1b", label, models[16].system(p).form, ms, base)
     print()
 
 
@@ -279,7 +287,7 @@ def print_free_decay() -> None:
         results.append((label, problem.model.system(p).form, ms))
     base = results[1][2]
     for label, form, ms in results:
-        print_row(label, form, ms, base)
+        print_row("1c", label, form, ms, base)
     print()
 
 
@@ -337,6 +345,7 @@ def print_stages(rec) -> None:
             t = stage_times(BeamModel(rec, base_name, N, effects=effects), p)
             total = t["system"] + t["prep"] + t["transfer"] + t["output"]
             per = t["transfer"] * 1e6 / (t["freq"] * t["dof"])
+            _record_row("1d", {"model": label, "N": N, **t, "total": total, "ns_per_freq_dof": per})
             print(f"{label:26} {N:3d} {t['form']:>9} {t['dof']:4d} {t['system']:7.3f} {t['prep']:7.3f} "
                   f"{t['transfer']:9.3f} {t['output']:7.3f} {total:7.3f}  {per:13.2f}")
     print()
@@ -393,13 +402,13 @@ def main(argv=None) -> int:
     for base_name, base_params in BASES:
         base = {N: linear_ms(BeamModel(rec, base_name, N), base_params) for N in SIZES}
         form = BeamModel(rec, base_name, 16).system(base_params).form
-        print_row(base_name + " (base)", form, base, base)
+        print_row("1", base_name + " (base)", form, base, base)
         for name, extra in LINEAR:
             p = {**base_params, **extra}
             ms = {N: linear_ms(BeamModel(rec, base_name, N, effects=name), p) for N in SIZES}
             form = BeamModel(rec, base_name, 16, effects=name).system(p).form
             label = f"{base_name} + {name} ({', '.join(f'{k}={v:g}' for k, v in extra.items())})"
-            print_row(label, form, ms, base)
+            print_row("1", label, form, ms, base)
     print()
     print_poles(rec)
     print_free_decay()
@@ -425,6 +434,8 @@ def main(argv=None) -> int:
         ev = ", ".join(f"{k} {v}" for k, v in events.items() if v) if events else ""
         label = f"q3 + {name} ({', '.join(f'{k}={v:g}' for k, v in extra.items())})"
         ok = "ok" if ms <= TARGET_MS else "MISSED"
+        _record_row("2", {"model": label, "substeps": U, "ms": ms, "target_ms": TARGET_MS,
+                          "effect": effect / rms(sol.output), "error": error, "events": events})
         print(f"{label:34} {U:3d} {ms:8.1f} {ok:>7} {effect / rms(sol.output):8.1e} {error:9.1e}  {ev}")
         results[(name, tuple(extra.items()))] = (m, p, ms, sol.output)
     print("effect = RMS(y - y_linear) / RMS(y); error = RMS(y - y_4U) / RMS(y - y_linear), the\n"
@@ -453,6 +464,8 @@ def main(argv=None) -> int:
         diff_in = float(np.max(np.abs(d_in[keep_in])) / np.max(np.abs(r_in[keep_in])))
         label = f"q3 + {name} ({', '.join(f'{k}={v:g}' for k, v in extra.items())})"
         notes = ", ".join(f"{k} {v}" for k, v in info.items())
+        _record_row("3", {"model": label, "ivp_ms": elapsed * 1e3, "full_ms_extrapolated": full,
+                          "ratio": full / ms, "diff": diff, "diff_in_band": diff_in, **info})
         print(f"{label:34} {elapsed * 1e3:10.0f} {full:10.0f} {full / ms:8.0f}x {diff:9.1e} {diff_in:9.1e}  {notes}")
         print(f"  (done {time.perf_counter() - started:.0f} s)", file=sys.stderr)
     print("ratio = solve_ivp (extrapolated) / bayesbeam simulate. diff = max |y - y_ivp| / max |y_ivp| of\n"
@@ -468,6 +481,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    import tables
-
     sys.exit(tables.run("effects", main))

@@ -33,6 +33,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 import _common as c
 import numpy as np
+import tables
 from scipy.integrate import solve_ivp
 
 from bayesbeam import load_recording
@@ -296,6 +297,8 @@ def main(argv=None) -> int:
         convergence.append(("Richardson (4 y32 - y16)/3", convergence[1][1] + convergence[2][1],
                             c.relative_difference(y_r, y_bb), c.relative_difference(y_r, y_doc)))
 
+    tables.record(rows=rows, notes=notes, convergence=[dict(zip(("label", "ms", "vs_bayesbeam", "vs_exact"), row))
+                                                       for row in convergence], target_ms=TARGET_MS)
     # ------------------------------------------------------------------ report
     print("Max |y - y_bayesbeam| / max |y_bayesbeam| (\"vs bayesbeam\") and the same against the")
     print("exact documented output F^-1{H W F} (\"vs exact\", computed without time stepping).")
@@ -369,7 +372,6 @@ def run_all(argv: list[str]) -> int:
     """The forward benchmark, then (unless ``--no-effects``) the effects benchmark, each saved to
     benchmarks/results and rendered into benchmarks/README.md; ``--tables`` re-renders both."""
     import effects
-    import tables
 
     status = tables.run("forward", main, argv)
     if status or "--no-effects" in argv:

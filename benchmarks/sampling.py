@@ -34,6 +34,7 @@ from pathlib import Path
 
 import emcee
 import numpy as np
+import tables  # benchmarks/tables.py: the script's folder is first on sys.path
 
 from bayesbeam.inference.fit import FitConfig, prepare
 from bayesbeam.inference.sampler import (
@@ -142,10 +143,12 @@ def main(argv=None) -> int:
     print(f"   ratio 1 process / 2 processes: {one[0] / two[0]:.2f}; with 2 processes "
           f"{scale * two[0] / TARGET_SECONDS:.2f} x the 5-minute target")
     print(f"load at end {tuple(round(x, 2) for x in os.getloadavg())}")
+    tables.record(evaluations_per_second=rate, walkers=n_walkers, target_ess=1000.0, stopped_at_ess=target,
+                  extrapolated=bool(args.quick), target_seconds=TARGET_SECONDS,
+                  **{f"seconds_to_ess_1000_{key}": scale * seconds for key, (seconds, _, _) in
+                     (("2_processes", two), ("1_process", one))})
     return 0
 
 
 if __name__ == "__main__":
-    import tables
-
     sys.exit(tables.run("sampling", main))

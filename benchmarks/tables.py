@@ -1,10 +1,11 @@
 """The benchmarks' results and their blocks in benchmarks/README.md.
 
-Each benchmark script ends in :func:`run`: it runs the benchmark, keeping what it prints, writes
-``benchmarks/results/<name>.json`` (the command, its printed tables, the wall time and the
-provenance) and renders the README's ``<!-- begin: <name> -->`` block from that file. ``--tables``
-re-renders the block from the committed JSON without running anything. A benchmark with no
-committed result gets a block that says which command produces it, never numbers of another run.
+Each benchmark script ends in :func:`run`: it runs the benchmark, keeping what it prints, and
+writes ``benchmarks/results/<name>.json`` (the command, its printed tables, the numbers it passed
+to :func:`record`, the wall time and the provenance), then renders the README's
+``<!-- begin: <name> -->`` block from that file. ``--tables`` re-renders the block from the
+committed JSON without running anything. A benchmark with no committed result gets a block that
+says which command produces it, never numbers of another run.
 """
 from __future__ import annotations
 
@@ -49,6 +50,16 @@ def write_table(name: str) -> Path:
     return write_blocks(README, {name: render(name)})
 
 
+#: what the running benchmark measured, as numbers (:func:`record`), saved beside its printed output
+MEASURED: dict = {}
+
+
+def record(**measured) -> None:
+    """Keep numbers the running benchmark measured; :func:`run` saves them as ``measured`` in its JSON
+    (the printed tables stay the README's text; these are for anything that quotes a number)."""
+    MEASURED.update(measured)
+
+
 def run(name: str, main, argv: list[str] | None = None) -> int:
     """Run ``main(argv)`` of benchmark ``name``, save what it printed and render its block.
 
@@ -61,6 +72,7 @@ def run(name: str, main, argv: list[str] | None = None) -> int:
         print(f"wrote {write_table(name)}")
         return 0
     printed = io.StringIO()
+    MEASURED.clear()
     started = time.perf_counter()
     with contextlib.redirect_stdout(_Tee(sys.stdout, printed)):
         status = main(argv)
@@ -69,8 +81,8 @@ def run(name: str, main, argv: list[str] | None = None) -> int:
         print(f"{name}: exit status {status}; results not saved", file=sys.stderr)
         return status
     RESULTS.mkdir(exist_ok=True)
-    write_json({"command": command(name, argv), "seconds": round(seconds, 1), "output": printed.getvalue()},
-               RESULTS / f"{name}.json")
+    write_json({"command": command(name, argv), "seconds": round(seconds, 1), "output": printed.getvalue(),
+                "measured": dict(MEASURED)}, RESULTS / f"{name}.json")
     print(f"wrote {RESULTS / f'{name}.json'} and {write_table(name)}")
     return 0
 
