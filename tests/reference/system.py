@@ -8,10 +8,12 @@ with :math:`K = EI\,K_0 + P\,G_0 + k_\theta e e^T`, :math:`D = \gamma M_0 + c_dI
 Two first-order forms, both integrated exactly by :mod:`tests.reference.integrate`:
 
 * without memory, the full finite-element state :math:`x = (w, \dot w)` (one block);
-* with time hysteresis, the undamped modes of (K, M) below a cut-off, each mode a block
+* with time hysteresis, the undamped modes of (K, M) below a cut-off with states
   :math:`(q, \dot q, \zeta_{lo}, \zeta_1, \dots)` carrying the kernel's sum of exponentials
-  (:mod:`tests.reference.memory`). This needs D and :math:`K_0` diagonal in those modes (true
-  for time hysteresis alone, with strain rate, a sensor mass or a delay); otherwise it refuses.
+  (:mod:`tests.reference.memory`): one small block per mode when D and :math:`K_0` are diagonal
+  in those modes (time hysteresis alone, with strain rate, a sensor mass or a delay), else one
+  block of all modes (with a root spring, an axial load, or air and a tip body), whose size
+  m (J + 3) asks for fewer modes or exponentials than the defaults.
 
 A block is (A, B, C, F): :math:`\dot x = A x + B f`, outputs :math:`y = C x + F f` where each
 sensor row reads the deflection, velocity or acceleration (:math:`C = S_v A`, :math:`F = S_v B`).
@@ -151,43 +153,56 @@ def undamped_modes(mats: Matrices) -> tuple[np.ndarray, np.ndarray]:
     return np.sqrt(lam), phi
 
 
-def _diagonal(matrix: np.ndarray, what: str) -> np.ndarray:
-    diag = np.diag(matrix)
-    off = matrix - np.diag(diag)
-    if np.max(np.abs(off), initial=0.0) > 1e-8 * max(np.max(np.abs(diag)), 1e-300):
-        raise ValueError(f"{what} couples the undamped modes, which the reference's time-hysteresis blocks cannot "
-                         "carry. Fix: combine time hysteresis only with strain rate, a sensor mass or a delay "
-                         "(or air without a tip body).")
-    return diag
+#: largest coupled memory block (states) the stepping handles in seconds
+MAX_COUPLED_STATES = 1200
 
 
-def modal_blocks(case: BeamCase, mats: Matrices, load_at: float, omega_cut: float, du: float = 0.5) -> Blocks:
-    """One block per undamped mode below ``omega_cut`` (rad/s), with the memory's exponentials."""
-    omega, phi = undamped_modes(mats)
-    keep = omega <= omega_cut
-    omega, phi = omega[keep], phi[:, keep]
-    damping = _diagonal(phi.T @ mats.D @ phi, "the damping")
-    curvature = _diagonal(phi.T @ mats.K0 @ phi, "the curvature stiffness K_0")
+def _is_diagonal(matrix: np.ndarray) -> bool:
+    off = matrix - np.diag(np.diag(matrix))
+    return np.max(np.abs(off), initial=0.0) <= 1e-8 * max(np.max(np.abs(np.diag(matrix))), 1e-300)
+
+
+def _memory_block(case: BeamCase, mesh: Mesh, soe: SumOfExponentials, omega, phi, damping, curvature, load):
+    """(A, B, C, F) of the modes ``phi`` (n_dof, m) together: state (q, q', zeta_lo, zeta_1, ...), each m long,
+    with damping Phi' D Phi and curvature Phi' K_0 Phi (m, m) and the kernel's exponentials ``soe``."""
     alpha, beta = case.damping.get("alpha", 0.0), case.damping.get("beta", 1.0)
-    soe = SumOfExponentials.covering(beta, omega[-1], du)
     kappa0, kappa1 = soe.kappa
     rates = np.concatenate([[beta], beta + soe.rates])
     weights = np.concatenate([[soe.low_weight], soe.weights])
-    ns = 2 + rates.size
+    m, n_rates = omega.size, rates.size
+    ns = m * (2 + n_rates)
+    A = np.zeros((ns, ns))
+    A[:m, m : 2 * m] = np.eye(m)
+    A[m : 2 * m, :m] = -(np.diag(omega**2) - alpha * (kappa0 - kappa1 * beta) * curvature)
+    A[m : 2 * m, m : 2 * m] = -(damping + alpha * kappa1 * curvature)
+    A[m : 2 * m, 2 * m :] = np.hstack([alpha * w * curvature for w in weights])
+    A[2 * m :, :m] = np.tile(np.eye(m), (n_rates, 1))
+    A[2 * m :, 2 * m :] = -np.diag(np.repeat(rates, m))
+    B = np.zeros(ns)
+    B[m : 2 * m] = load
+    disp = np.hstack([phi, np.zeros((phi.shape[0], ns - m))])
+    vel = np.hstack([np.zeros((phi.shape[0], m)), phi, np.zeros((phi.shape[0], ns - 2 * m))])
+    return (A, B, *_readout(case, mesh, A, B, disp, vel))
+
+
+def modal_blocks(case: BeamCase, mats: Matrices, load_at: float, omega_cut: float, du: float = 0.5,
+                 coupled: bool | None = None) -> Blocks:
+    """The undamped modes below ``omega_cut`` (rad/s) with the memory's exponentials: one block per
+    mode when D and K_0 are diagonal in the modes, else (or with ``coupled=True``) one block of all."""
+    omega, phi = undamped_modes(mats)
+    keep = omega <= omega_cut
+    omega, phi = omega[keep], phi[:, keep]
+    damping, curvature = phi.T @ mats.D @ phi, phi.T @ mats.K0 @ phi
+    if coupled is None:
+        coupled = not (_is_diagonal(damping) and _is_diagonal(curvature))
+    soe = SumOfExponentials.covering(case.damping.get("beta", 1.0), omega[-1], du)
+    if coupled and omega.size * (3 + soe.rates.size) > MAX_COUPLED_STATES:
+        raise ValueError(f"time hysteresis with modes coupled by damping, a root spring or an axial load needs one "
+                         f"block of {omega.size * (3 + soe.rates.size)} states, over {MAX_COUPLED_STATES}. Fix: keep "
+                         "fewer modes or exponentials, e.g. Numerics(omega_cut=2 * pi * 2000, du=0.7).")
+    groups = [np.arange(omega.size)] if coupled else [np.array([k]) for k in range(omega.size)]
     load = phi.T @ mats.mesh.rows([load_at])[0]
-    blocks = []
-    for k in range(omega.size):
-        memory = alpha * curvature[k]
-        A = np.zeros((ns, ns))
-        A[0, 1] = 1.0
-        A[1, 0] = -(omega[k] ** 2 - memory * (kappa0 - kappa1 * beta))
-        A[1, 1] = -(damping[k] + memory * kappa1)
-        A[1, 2:] = memory * weights
-        A[2:, 0] = 1.0
-        A[2:, 2:] = -np.diag(rates)
-        B = np.zeros(ns)
-        B[1] = load[k]
-        disp, vel = np.outer(phi[:, k], np.eye(1, ns, 0)), np.outer(phi[:, k], np.eye(1, ns, 1))
-        blocks.append((A, B, *_readout(case, mats.mesh, A, B, disp, vel)))
+    blocks = [_memory_block(case, mats.mesh, soe, omega[g], phi[:, g], damping[np.ix_(g, g)],
+                            curvature[np.ix_(g, g)], load[g]) for g in groups]
     A, B, C, F = (np.stack(parts) for parts in zip(*blocks))
     return Blocks(A, B, C, F.sum(axis=0))
