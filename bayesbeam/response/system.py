@@ -707,7 +707,9 @@ def _diagonal_plus_low_rank(a: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, n
         s = np.linalg.solve(kron - u.T @ u, (v.T @ off @ v).ravel()).reshape(r, r)
         s = 0.5 * (s + s.T)
     rest = a - v @ s @ v.T
-    return (s, rest.diagonal().copy()) if _is_diagonal(rest) else None
+    # a matrix wholly along v (a root dashpot's damping) leaves only rounding: a zero diagonal
+    negligible = np.max(np.abs(rest)) <= _DIAGONAL_TOL * np.max(np.abs(a))
+    return (s, rest.diagonal().copy()) if negligible or _is_diagonal(rest) else None
 
 
 def _multiple(a: np.ndarray, b: np.ndarray) -> bool:
