@@ -6,7 +6,8 @@ A mechanism adds a term to the weak form of the beam equation. Two kinds occur i
   :math:`M\\ddot w + (\\sum_m D_m)\\dot w + K w = F` (air, strain rate, spatial hysteresis);
 * *hereditary* terms, a memory integral of the curvature: in the Laplace domain a scalar
   relaxation transform :math:`\\hat G(s)` times :math:`K_0` that is subtracted from the
-  stiffness, :math:`K \\to EI\\,K_0 - \\hat G(s) K_0` (time hysteresis).
+  stiffness, :math:`K \\to EI\\,K_0 - \\hat G(s) K_0` (time hysteresis; and, from the literature
+  since, fractional Kelvin-Voigt, exponential relaxation and thermoelastic damping).
 
 Both come out of the weak form, so the damping moments appear in the free-end conditions as the
 paper requires, without any extra boundary term.
