@@ -353,7 +353,7 @@ def _augmented(model, name) -> BeamModel:
     rec = model.recording
     windowed = model.force is not None and not np.array_equal(model.force, rec.force)
     return BeamModel.from_recording(rec, [m.name for m in model.mechanisms], model.n_intervals, windowed,
-                                    [e.name for e in model.effects] + [name])
+                                    [e.name for e in model.effects] + [name], degree=model.degree)
 
 
 def _grid(support) -> np.ndarray:

@@ -27,8 +27,9 @@ from bayesbeam.model import BeamModel
 from bayesbeam.response.linear import PASSBAND
 from bayesbeam.response.signals import EDGE, decimate, force_noise
 
-#: refinement ladder for the automatic choice of N
-N_LADDER = (16, 24, 32, 48, 64)
+#: refinement ladders for the automatic choice of N, per spline degree; the quintic's rungs reach
+#: the cubic's in-band response accuracy with about a third of the intervals (benchmarks/basis.py)
+N_LADDERS = {3: (16, 24, 32, 48, 64), 5: (8, 12, 16, 24, 32)}
 #: refining N must move every parameter's optimum by less than this many posterior sd
 SHIFT_TOLERANCE = 0.1
 #: default fitting band as a fraction of the sampling rate: below the DAQ passband edge 0.40
@@ -46,7 +47,8 @@ class FitConfig:
 
     start, stop: fitted window (s; default: the whole record, from ``start`` for a free decay);
     max_frequency: top of the fitted band (Hz; default 0.38 fs, lowered for records longer than
-    32768 samples); n_intervals: spline intervals N or None for automatic; noise: "white" or
+    32768 samples); n_intervals: spline intervals N or None for automatic; degree: the splines'
+    polynomial degree (3 or 5, see :data:`N_LADDERS`); noise: "white" or
     "ar1"; block: samples per likelihood block (default: up to 16 blocks of >= 256 samples
     covering the window); walkers, max_steps,
     tau_factor: emcee settings; seed; effects: missing-physics effects to add; force_window: the
@@ -59,6 +61,7 @@ class FitConfig:
     stop: float | None = None
     max_frequency: float | None = None
     n_intervals: int | None = None
+    degree: int = 3
     noise: str = "white"
     block: int | None = None
     walkers: int | None = None
@@ -73,6 +76,9 @@ class FitConfig:
     def __post_init__(self):
         if self.noise not in NOISE_MODELS:
             raise ValueError(f"noise = {self.noise!r}: expected one of {NOISE_MODELS}")
+        if self.degree not in N_LADDERS:
+            raise ValueError(f"degree = {self.degree!r}: expected one of {sorted(N_LADDERS)} (spline degrees "
+                             "with a refinement ladder for the automatic choice of N)")
         self.effects = tuple(self.effects)
 
 
@@ -115,7 +121,7 @@ def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     factor, f_max = _band(rec, config)
     data = decimate(rec, factor, force_window=config.force_window)
     model = BeamModel.from_recording(data, mechanisms, n_intervals, force_window=False,
-                                     effects=config.effects)
+                                     effects=config.effects, degree=config.degree)
     i0, i1 = _window(data, config, edge=EDGE if factor > 1 else 0)
     _check_length(rec, i1 - i0, factor, f_max)
     # default: up to 16 blocks of at least 256 samples that cover the window (the remainder is
@@ -266,22 +272,23 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     The optimum at N is compared with the optimum at the next finer N, estimated by one Newton
     step of the finer model's log posterior from the coarse optimum (exact to second order in the
     shift, which is small exactly when the check passes). While the check fails, the Newton
-    estimate, polished by a local optimisation, moves up the ladder (:data:`N_LADDER`). With
+    estimate, polished by a local optimisation, moves up the ladder (:data:`N_LADDERS`, per degree). With
     ``config.n_intervals`` set, that N is used and the check is still recorded, so a user can
     see whether the fixed N is adequate; at the top of the ladder a failed check is reported as
     such (``passed: false``), never hidden.
     """
-    problem = prepare(rec, model, config, config.n_intervals or N_LADDER[0])
+    ladder = N_LADDERS[config.degree]
+    problem = prepare(rec, model, config, config.n_intervals or ladder[0])
     optimum = find_optimum(problem.posterior, rng, log=log)
     if start is not None:
         local = find_optimum(problem.posterior, rng, start=start, log=log)
         optimum = local if local.log_posterior > optimum.log_posterior else optimum
     while True:
         n = problem.model.n_intervals
-        finer_n = N_LADDER[N_LADDER.index(n) + 1] if n in N_LADDER[:-1] else int(1.5 * n)
+        finer_n = ladder[ladder.index(n) + 1] if n in ladder[:-1] else int(1.5 * n)
         finer = prepare(rec, model, config, finer_n)
         record, moved = _refinement_check(problem, finer, optimum, config, log)
-        if record["passed"] or config.n_intervals or finer_n > N_LADDER[-1]:
+        if record["passed"] or config.n_intervals or finer_n > ladder[-1]:
             break
         theta = optimum.theta + np.where(np.isfinite(moved), moved, 0.0)
         # a failed check can mean a long Newton step: keep it only where the finer model is better
@@ -301,7 +308,8 @@ def _refinement_check(problem: Problem, finer: Problem, optimum: Optimum, config
     n, finer_n = problem.model.n_intervals, finer.model.n_intervals
     moved = newton_shift(finer.posterior, optimum.theta, optimum.covariance)
     shift = np.abs(moved[:k]) / np.sqrt(np.diag(optimum.covariance)[:k])
-    record = {"n_intervals": n, "refined_n_intervals": finer_n, "tolerance_sd": SHIFT_TOLERANCE,
+    record = {"n_intervals": n, "refined_n_intervals": finer_n, "degree": problem.model.degree,
+              "tolerance_sd": SHIFT_TOLERANCE,
               "max_shift_sd": float(np.max(shift)),
               "shift_sd": dict(zip(problem.posterior.model_names, map(float, shift))),
               "passed": bool(np.max(shift) < SHIFT_TOLERANCE), "automatic": not config.n_intervals}

@@ -102,3 +102,13 @@ def test_noise_sd_prior_can_be_overridden(air_case):
     config = FitConfig(n_intervals=6, priors={"sigma_accel_tip": Prior("loguniform", 1e-3, 10.0)})
     post = prepare(rec, "air", config, 6).posterior
     assert dict(zip(post.names, post.priors))["sigma_accel_tip"] == Prior("loguniform", 1e-3, 10.0)
+
+
+def test_spline_degree_needs_a_refinement_ladder(air_case):
+    """The automatic choice of N climbs a ladder per spline degree (N_LADDERS): another degree is
+    refused when the config is made; a laddered one reaches the model."""
+    with pytest.raises(ValueError, match=r"degree = 4: expected one of \[3, 5\]"):
+        FitConfig(degree=4)
+    rec, _ = air_case
+    model = prepare(rec, "air", FitConfig(n_intervals=8, degree=5), 8).model
+    assert (model.degree, model.ops.size) == (5, 11)
