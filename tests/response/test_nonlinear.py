@@ -563,16 +563,37 @@ def test_release_before_the_first_sample_shifts_the_record():
     assert np.all(np.max(np.abs(y5[:-60] - y0[5:-55]), axis=0) < 1e-9 * scale)
 
 
+def test_root_spring_and_friction_compose_to_the_event_driven_solution():
+    """root_compliance + dry_friction on a hammer test with stick-slip: the integrator's tip
+    displacement against solve_ivp's event-driven solution of the composed equations (M, D, K
+    with the root spring), bound 1e-6 of the peak as in test_forced_friction_matches_solve_ivp
+    (measured 1.2e-7). The root spring is really in both: the rigid clamp with the same friction
+    is 0.36 of the peak away (bound: > 1e-2). Without friction the composition is the linear
+    root_compliance model exactly."""
+    duration = 0.25
+    rec = hammer(duration=duration, sensors=((1.0, "acceleration"),), at=0.05)
+    p = {"EI": PAPER_EI, "gamma": 0.5, "cdI": 2e-4, "F_c": 0.3, "k_theta": 500.0}
+    model = BeamModel(rec, "q1", 4, effects="root_compliance+dry_friction")
+    tip = forced_friction_reference(model, p, duration)
+    sol = nl.integrate(model, p, record=True)
+    nodes = sol.t_start + sol.step * np.arange(sol.record["u_tip"].size)
+    keep = (nodes >= -128 * rec.dt) & (nodes <= duration)
+    u_ref = tip(nodes[keep])
+    assert sol.record["events"]["stick"] > 10 and sol.record["events"]["reversal"] > 10
+    assert np.max(np.abs(sol.record["u_tip"][keep] - u_ref)) < 1e-6 * np.max(np.abs(u_ref))
+    clamped = {k: v for k, v in p.items() if k != "k_theta"}
+    rigid = nl.integrate(BeamModel(rec, "q1", 4, effects="dry_friction"), clamped, record=True)
+    assert np.max(np.abs(rigid.record["u_tip"][keep] - u_ref)) > 1e-2 * np.max(np.abs(u_ref))
+    frictionless = {k: v for k, v in p.items() if k != "F_c"}
+    np.testing.assert_array_equal(model.simulate({**p, "F_c": 0.0}),
+                                  BeamModel(rec, "q1", 4, effects="root_compliance").simulate(frictionless))
+
+
 def test_nonlinear_effects_compose_with_linear_effects():
-    """root_compliance + friction and measurement_delay + drag run; a whole-sample delay is a
-    shift of the nonlinear response too (to the solver's 1.5e-8 wrap-around floor)."""
+    """A whole-sample delay is a shift of the nonlinear (drag) response too (to the solver's
+    1.5e-8 wrap-around floor)."""
     rec = hammer()
     p = {"EI": PAPER_EI, "gamma": 0.2, "cdI": 1e-4}
-    a = BeamModel(rec, "q1", 8, effects="root_compliance+dry_friction")
-    np.testing.assert_array_equal(a.simulate({**p, "k_theta": 500.0, "F_c": 0.0}),
-                                  BeamModel(rec, "q1", 8, effects="root_compliance").simulate(
-                                      {**p, "k_theta": 500.0}))
-    assert np.all(np.isfinite(a.simulate({**p, "k_theta": 500.0, "F_c": 0.05})))
     b = BeamModel(rec, "q1", 8, effects="measurement_delay+quadratic_drag")
     y0 = b.simulate({**p, "tau": 0.0, "c_q": 2.0})
     y2 = b.simulate({**p, "tau": 2 / 512.0, "c_q": 2.0})
