@@ -1,12 +1,14 @@
 """Spatial hysteresis: dissipation, quadrature convergence, the Kelvin-Voigt limit, and the fast
 block-Toeplitz assembly against the dense bracket form it regroups."""
+import math
+
 import numpy as np
 import pytest
+from scipy import integrate
 
 from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics.basis import SplineBasis
-from bayesbeam.physics.mechanisms.spatial_hysteresis import (SpatialHysteresis, _slope_rows,
-                                                             kernel, points_per_interval)
+from bayesbeam.physics.mechanisms.spatial_hysteresis import SpatialHysteresis, _slope_rows, kernel, points_per_interval
 
 MECH = SpatialHysteresis()
 
@@ -32,18 +34,35 @@ def test_quadrature_is_converged(b):
     assert np.abs(d - d2).max() < 1e-8 * np.abs(d).max()
 
 
-def test_double_integral_matches_independent_quadrature():
-    """The form 1/2 iint h (v'(x)-v'(xi))^2 for one smooth field, by scipy dblquad."""
-    from scipy import integrate
+def paper_kernel(x, xi, a, b):
+    """The paper's eq. (14), written out here: h = a / (b sqrt(2 pi)) exp(-(x - xi)^2 / (2 b^2))."""
+    return a / (b * math.sqrt(2 * math.pi)) * math.exp(-((x - xi) ** 2) / (2 * b * b))
 
-    a, b, l = 0.7, 0.15, 1.0
+
+@pytest.mark.parametrize("b", [0.15, 0.04])
+def test_double_integral_matches_independent_quadrature(b):
+    """d(v, v) of one smooth field from the paper's own form, by scipy dblquad: the damping force
+    -d/dx int h(x, xi) (v'(x) - v'(xi)) dxi, integrated by parts against v (the boundary term is
+    the free end's damping moment), gives int v'(x) int h(x, xi) (v'(x) - v'(xi)) dxi dx, here
+    not symmetrised and with the kernel written from eq. (14), not the module's. dblquad's own
+    error estimates stay below 3e-10 of the value; measured agreement 1e-13 (b = 0.15 m) and
+    3e-13 (b = 0.04 m); bound 1e-9. A kernel normalised as a/(b sqrt(pi)) exp(-d^2/b^2) is 44-49 %
+    off."""
+    a, l = 0.7, 1.0
     ops = BeamOperators(SplineBasis(l, 12), rho_a=1.0)
     x = np.linspace(0, l, 60)
     coef, *_ = np.linalg.lstsq(ops.rows(x), x**2 * (3 - x), rcond=None)  # exactly in the space
-    slope = lambda y: 6 * y - 3 * y**2  # noqa: E731
-    f = lambda xi, y: 0.5 * kernel(np.array([y]), np.array([xi]), a, b)[0, 0] * (slope(y) - slope(xi)) ** 2  # noqa: E731
-    ref, _ = integrate.dblquad(f, 0, l, 0, l, epsabs=1e-12, epsrel=1e-10)
-    assert np.isclose(coef @ MECH.damping(ops, {"a": a, "b": b}) @ coef, ref, rtol=1e-7)
+
+    def slope(y):
+        return 6 * y - 3 * y**2
+
+    def integrand(xi, y):
+        return slope(y) * paper_kernel(y, xi, a, b) * (slope(y) - slope(xi))
+
+    # the kernel's width splits the inner integral at xi = y, where it peaks
+    ref = sum(integrate.dblquad(integrand, 0, l, lo, hi, epsabs=1e-13, epsrel=1e-11)[0]
+              for lo, hi in ((lambda y: 0.0, lambda y: y), (lambda y: y, lambda y: l)))
+    assert np.isclose(coef @ MECH.damping(ops, {"a": a, "b": b}) @ coef, ref, rtol=1e-9, atol=0)
 
 
 def test_small_b_limit_is_kelvin_voigt():
