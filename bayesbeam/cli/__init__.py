@@ -38,6 +38,7 @@ Each command's options and their defaults: bayesbeam COMMAND --help."""
 
 #: command name -> module under bayesbeam.cli
 COMMANDS = {
+    "check": "check",
     "simulate": "simulate",
     "fit": "fit",
     "compare": "compare",
