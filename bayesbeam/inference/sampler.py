@@ -14,7 +14,9 @@ r"""From a robust optimum to converged emcee chains.
    autocorrelation time tau of every parameter is estimated (emcee's windowed estimator). The run
    has *converged* when the chain is longer than ``tau_factor`` (50) x max tau and tau changed by
    less than 5% since the previous chunk; it stops at ``max_steps`` otherwise and says so.
-   Burn-in: 3 max tau. Thinning: tau/2.
+   Burn-in: 3 max tau. Thinning: tau/2. Chunks end at multiples of the chunk length, and a run
+   resumed from its HDF5 backend (which holds the last step's random state) starts from the saved
+   chain's tau at its last such multiple: it ends with the chain an uninterrupted run ends with.
 
 Parallel evaluation goes through any object with a ``map`` (``multiprocessing.Pool``,
 ``concurrent.futures`` executors, ``mpi4py.futures.MPIPoolExecutor``, schwimmbad pools). The log
