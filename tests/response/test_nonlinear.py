@@ -413,14 +413,19 @@ def test_forced_friction_matches_solve_ivp():
     duration = 0.25
     rec = hammer(duration=duration, sensors=((1.0, "acceleration"),), at=0.05)
     p = {"EI": PAPER_EI, "gamma": 0.5, "cdI": 2e-4, "F_c": 0.3}
-    model = BeamModel(rec, "q1", 4, effects="dry_friction")
+    sol, keep, u_ref = integrated_and_reference(BeamModel(rec, "q1", 4, effects="dry_friction"), p, duration)
+    assert sol.record["events"]["stick"] > 10 and sol.record["events"]["reversal"] > 10
+    assert np.max(np.abs(sol.record["u_tip"][keep] - u_ref)) < 1e-6 * np.max(np.abs(u_ref))
+
+
+def integrated_and_reference(model, p, duration):
+    """(the integrator's recorded run, its nodes inside the record, solve_ivp's event-driven tip
+    displacement there: :func:`forced_friction_reference`) of a forced friction problem."""
     tip = forced_friction_reference(model, p, duration)
     sol = nl.integrate(model, p, record=True)
     nodes = sol.t_start + sol.step * np.arange(sol.record["u_tip"].size)
-    keep = (nodes >= -128 * rec.dt) & (nodes <= duration)
-    u_ref = tip(nodes[keep])
-    assert sol.record["events"]["stick"] > 10 and sol.record["events"]["reversal"] > 10
-    assert np.max(np.abs(sol.record["u_tip"][keep] - u_ref)) < 1e-6 * np.max(np.abs(u_ref))
+    keep = (nodes >= -128 * model.recording.dt) & (nodes <= duration)
+    return sol, keep, tip(nodes[keep])
 
 
 def test_friction_energy_balance():
@@ -574,11 +579,7 @@ def test_root_spring_and_friction_compose_to_the_event_driven_solution():
     rec = hammer(duration=duration, sensors=((1.0, "acceleration"),), at=0.05)
     p = {"EI": PAPER_EI, "gamma": 0.5, "cdI": 2e-4, "F_c": 0.3, "k_theta": 500.0}
     model = BeamModel(rec, "q1", 4, effects="root_compliance+dry_friction")
-    tip = forced_friction_reference(model, p, duration)
-    sol = nl.integrate(model, p, record=True)
-    nodes = sol.t_start + sol.step * np.arange(sol.record["u_tip"].size)
-    keep = (nodes >= -128 * rec.dt) & (nodes <= duration)
-    u_ref = tip(nodes[keep])
+    sol, keep, u_ref = integrated_and_reference(model, p, duration)
     assert sol.record["events"]["stick"] > 10 and sol.record["events"]["reversal"] > 10
     assert np.max(np.abs(sol.record["u_tip"][keep] - u_ref)) < 1e-6 * np.max(np.abs(u_ref))
     clamped = {k: v for k, v in p.items() if k != "k_theta"}
