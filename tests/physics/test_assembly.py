@@ -44,12 +44,15 @@ def tip_body_determinant(b, mu, j):
     d2u = b**2 * np.array([(ch + c) / ch, s - c - em])
     d3u = b**3 * np.array([(sh - s) / ch, c + s + em])
     w2 = b**4
-    return np.linalg.det(np.array([d2u - j * w2 * du, d3u + mu * w2 * u]))
+    moment, shear = d2u - j * w2 * du, d3u + mu * w2 * u        # the two rows, columns first
+    return moment[0] * shear[1] - moment[1] * shear[0]
 
 
 def exact_tip_body(n, mu, j):
+    """The first n roots b = beta l of :func:`tip_body_determinant`: sign changes on a fine grid
+    (spacing under 3e-3 for n <= 16, the roots are about pi apart), refined by brentq."""
     grid = np.linspace(0.3, (n + 1.5) * np.pi, 20000)
-    vals = np.array([tip_body_determinant(b, mu, j) for b in grid])
+    vals = tip_body_determinant(grid, mu, j)
     idx = np.flatnonzero(np.sign(vals[:-1]) != np.sign(vals[1:]))
     roots = [optimize.brentq(tip_body_determinant, grid[i], grid[i + 1], args=(mu, j)) for i in idx]
     return np.array(roots[:n])
