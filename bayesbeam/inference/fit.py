@@ -78,7 +78,8 @@ class FitConfig:
             raise ValueError(f"noise = {self.noise!r}: expected one of {NOISE_MODELS}")
         if self.degree not in N_LADDERS:
             raise ValueError(f"degree = {self.degree!r}: expected one of {sorted(N_LADDERS)} (spline degrees "
-                             "with a refinement ladder for the automatic choice of N)")
+                             "with a refinement ladder for the automatic choice of N). Fix: set degree "
+                             "(under [fit] in a fit file) to one of these")
         self.effects = tuple(self.effects)
 
 
@@ -131,7 +132,7 @@ def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     projection = BandProjection(data.fs, i0, i1, block, f_max)
     noise_in_force = force_noise(rec, factor) if config.force_noise and config.force_window is not False else None
     likelihood = Likelihood(model, projection, config.noise, noise_in_force)
-    priors = default_priors(rec.beam, model.parameter_names, likelihood.channel_rms)
+    priors = default_priors(rec.beam, model.parameter_names, likelihood.channel_rms, rec.setup)
     for name in likelihood.noise_names:
         if name.startswith("phi_"):
             priors[name] = noise_prior("phi")
