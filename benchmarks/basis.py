@@ -136,7 +136,7 @@ def table_cost(wall: bool):
             for n in GRIDS[degree]:
                 model = BeamModel(rec, model_name, n, degree=degree)
                 error = np.linalg.norm(project(model.simulate(params)) - ref) / norm
-                ms = ms_per_call(lambda m=model: m.simulate(params), clock)
+                ms = ms_per_call(lambda m=model, p=params: m.simulate(p), clock)
                 rows.append((model_name, degree, n, model.ops.size, error, ms))
                 print(f"{model_name:<6}{degree:>7}{n:>5}{model.ops.size:>6}{error:>11.2e}{ms:>9.3f}")
     print()
@@ -155,15 +155,22 @@ def table_cost(wall: bool):
             print(f"{model_name:<6}{target:>8g}{cells[0]:>9}{times[0]:>8}{cells[1]:>11}{times[1]:>8}{ratio:>15}")
 
 
-def main():
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--wall", action="store_true", help="wall time instead of process CPU time")
-    args = parser.parse_args()
+    parser.add_argument("--tables", action="store_true",
+                        help="only re-render README.md's block from benchmarks/results/basis.json")
+    args = parser.parse_args(argv)
     print(f"load average {os.getloadavg()[0]:.1f}")
     table_accuracy_per_dof()
     table_cost(args.wall)
     print(f"load average {os.getloadavg()[0]:.1f}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    import sys
+
+    import tables
+
+    sys.exit(tables.run("basis", main))
