@@ -64,7 +64,7 @@ _MEANING = {
     "area": "A in m^2",
     "second_moment": "I in m^4",
     "modulus": "nominal E in Pa",
-    "mass": "tip mass m_T in kg",
+    "mass": "a mass in kg: m_T in [tip], the sensor's own mass in [[sensor]]",
     "rotary_inertia": "tip rotary inertia J in kg m^2",
     "location": "position in m from the clamp",
     "tip_load": "static tip load in N",
@@ -81,7 +81,17 @@ _MEANING = {
     "thermal_diffusivity": "chi in m^2/s",
     "thickness": "h, the beam's depth in the plane of bending, in m",
     "material_name": '"steel" or "aluminium"',
+    "length_tolerance": "in m: the free length lies within length +- this",
+    "location_tolerance": "in m: the sensor sits within location +- this",
+    "mass_tolerance": "in kg: the tip mass lies within mass +- this",
+    "rotary_inertia_tolerance": "in kg m^2: the tip's rotary inertia lies within rotary_inertia +- this",
 }
+
+# Optional keys inside the format's own tables that state what is known about the set-up
+# (docs/format.md). The format carries keys it does not name along without refusing them, so
+# they are kept verbatim at load (Recording.setup_keys) and checked when read (Recording.setup).
+_SETUP_KEYS = {"beam": ("length_tolerance",), "tip": ("mass_tolerance", "rotary_inertia_tolerance"),
+               "sensor": ("mass", "location_tolerance")}
 
 # The optional [material] table (docs/format.md): what the thermoelastic damping mechanism
 # predicts its damping from. Named materials supply handbook values of the three constants
@@ -148,6 +158,29 @@ class Material:
 
 
 @dataclass(frozen=True)
+class SetUp:
+    """What ``beam.toml`` states about the set-up beyond the nominal beam, SI units.
+
+    length_tolerance: the free length lies within l +- this (m). tip_mass_tolerance (kg) and
+    tip_rotary_inertia_tolerance (kg m^2): m_T and J lie within +- these. sensor_masses: each
+    sensor's own mass (kg) in the order of ``Recording.sensors``, None where not stated.
+    location_tolerances: each sensor sits within its location +- this (m). A tolerance of 0
+    means the value is taken as stated.
+    """
+
+    length_tolerance: float = 0.0
+    tip_mass_tolerance: float = 0.0
+    tip_rotary_inertia_tolerance: float = 0.0
+    sensor_masses: tuple[float | None, ...] = ()
+    location_tolerances: tuple[float, ...] = ()
+
+    @property
+    def stated_mass(self) -> float:
+        """The stated sensor masses summed, kg (0 when none is stated)."""
+        return sum(m for m in self.sensor_masses if m is not None)
+
+
+@dataclass(frozen=True)
 class Excitation:
     """How the beam was set moving.
 
@@ -185,6 +218,9 @@ class Recording:
     force: (n,) N, present exactly when ``excitation.kind == "force"``.
     source: the directory the recording was read from (not compared by ``==``).
     extra: other top-level TOML entries (e.g. a [notes] table), carried along verbatim.
+    setup_keys: the set-up keys of the format's own tables as written, e.g.
+    ``{"beam": {"length_tolerance": 0.002}, "sensor": [{"mass": 0.006}]}`` (one dict per sensor);
+    checked when :attr:`setup` is read.
 
     The arrays are stored as read-only float64 copies, so a Recording cannot change
     under a fit that holds it. ``==`` compares every field but ``source``, arrays exactly.
@@ -199,6 +235,7 @@ class Recording:
     force: np.ndarray | None = None
     source: Path | None = field(default=None, compare=False)
     extra: dict = field(default_factory=dict)
+    setup_keys: dict = field(default_factory=dict)
 
     def __post_init__(self):
         set_field = partial(object.__setattr__, self)  # frozen: only the base setter may assign
@@ -262,6 +299,13 @@ class Recording:
         RecordingError naming the keys to add when it is missing or incomplete."""
         return _read_material(self.extra, (self.source or Path(".")) / "beam.toml")
 
+    @property
+    def setup(self) -> SetUp:
+        """What beam.toml states about the set-up (sensor masses, tolerances), checked;
+        RecordingError naming the key and the fix for a non-numeric, negative or non-finite value."""
+        return _read_setup(self.setup_keys, len(self.sensors), self.beam.length,
+                           (self.source or Path(".")) / "beam.toml")
+
     def with_signals(self, signals) -> Recording:
         """A copy with ``signals`` (shape (n_samples, n_sensors)) in place of the measured ones."""
         return replace(self, signals=signals)
@@ -310,7 +354,8 @@ def load_recording(path: str | os.PathLike) -> Recording:
     _check_force(table, excitation, force)
     signals = np.column_stack([table.column(s.column) for s in sensors])
     extra = {key: value for key, value in doc.items() if key not in _KNOWN_TABLES}
-    return Recording(beam, tip, excitation, sensors, time, signals, force, toml_path.parent, extra)
+    return Recording(beam, tip, excitation, sensors, time, signals, force, toml_path.parent, extra,
+                     _stated_setup(doc))
 
 
 def _toml_path(path: Path) -> Path:
@@ -447,7 +492,7 @@ def _read_beam(doc: dict, file: Path) -> Beam:
                 file, f"[beam] .{key}", f"{value!r} is not positive",
                 f"give {key} a positive value ({_MEANING[key]}).",
             )
-    _warn_unused(table, _BEAM_KEYS, "[beam]", file)
+    _warn_unused(table, (*_BEAM_KEYS, *_SETUP_KEYS["beam"]), "[beam]", file)
     return Beam(**values)
 
 
@@ -460,7 +505,7 @@ def _read_tip(doc: dict, file: Path) -> TipBody:
                 file, f"[tip] .{key}", f"{value!r} is negative",
                 f"give {key} a value >= 0 ({_MEANING[key]}), or 0 for no tip body.",
             )
-    _warn_unused(table, _TIP_KEYS, "[tip]", file)
+    _warn_unused(table, (*_TIP_KEYS, *_SETUP_KEYS["tip"]), "[tip]", file)
     return TipBody(**values)
 
 
@@ -486,6 +531,49 @@ def _read_material(doc: dict, file: Path) -> Material:
                                  f"give {key} a positive value ({_MEANING[key]}).")
     _warn_unused(table, ("name", *_MATERIAL_KEYS), "[material]", file)
     return Material(**values)
+
+
+def _stated_setup(doc: dict) -> dict:
+    """The set-up keys of beam.toml's [beam], [tip] and [[sensor]] tables, verbatim (only those
+    present; one dict per sensor); the tables themselves have been checked."""
+    stated = {}
+    for name in ("beam", "tip"):
+        table = doc.get(name, {})
+        if keys := {key: table[key] for key in _SETUP_KEYS[name] if key in table}:
+            stated[name] = keys
+    sensors = [{key: table[key] for key in _SETUP_KEYS["sensor"] if key in table} for table in doc.get("sensor", [])]
+    if any(sensors):
+        stated["sensor"] = sensors
+    return stated
+
+
+def _read_setup(stated: dict, n_sensors: int, length: float, file: Path) -> SetUp:
+    beam, tip = stated.get("beam", {}), stated.get("tip", {})
+    sensors = list(stated.get("sensor", []))
+    sensors += [{}] * (n_sensors - len(sensors))
+    length_tolerance = _non_negative(beam, "length_tolerance", "[beam]", file)
+    if length_tolerance >= length:
+        raise RecordingError(file, "[beam] .length_tolerance", f"{length_tolerance!r} m is not below the length "
+                             f"{length!r} m", "give the free length's tolerance in m, smaller than the length.")
+    labels = [f"[[sensor]] #{i}" for i in range(1, n_sensors + 1)]
+    return SetUp(
+        length_tolerance=length_tolerance,
+        tip_mass_tolerance=_non_negative(tip, "mass_tolerance", "[tip]", file),
+        tip_rotary_inertia_tolerance=_non_negative(tip, "rotary_inertia_tolerance", "[tip]", file),
+        sensor_masses=tuple(_non_negative(table, "mass", label, file) if "mass" in table else None
+                            for table, label in zip(sensors, labels)),
+        location_tolerances=tuple(_non_negative(table, "location_tolerance", label, file)
+                                  for table, label in zip(sensors, labels)),
+    )
+
+
+def _non_negative(table: dict, key: str, label: str, file: Path) -> float:
+    """The finite number ``table[key]`` >= 0 (0.0 when absent)."""
+    value = _number(table, key, label, file, default=0.0)
+    if value < 0.0:
+        raise RecordingError(file, f"{label} .{key}", f"{value!r} is negative",
+                             f"give {key} a value >= 0 ({_MEANING[key]}), or leave the key out.")
+    return value
 
 
 def _read_excitation(doc: dict, file: Path, length: float) -> Excitation:
@@ -541,7 +629,7 @@ def _read_sensor(table, label: str, file: Path, length: float) -> Sensor:
         quantity=_choice(table, "quantity", label, file, QUANTITIES),
         column=_text(table, "column", label, file),
     )
-    _warn_unused(table, _SENSOR_KEYS, label, file)
+    _warn_unused(table, (*_SENSOR_KEYS, *_SETUP_KEYS["sensor"]), label, file)
     return sensor
 
 
@@ -866,11 +954,14 @@ def _beam_toml(rec: Recording, time_column: str) -> str:
     tables = {key: value for key, value in rec.extra.items() if isinstance(value, dict)}
     lines = ["# Recording description; the format is documented in docs/format.md."]
     lines += _toml_pairs(scalars)  # top-level keys must precede every table header
-    lines += _toml_table(["beam"], {key: getattr(rec.beam, key) for key in _BEAM_KEYS})
-    lines += _toml_table(["tip"], {key: getattr(rec.tip, key) for key in _TIP_KEYS})
+    stated = rec.setup_keys
+    lines += _toml_table(["beam"], {key: getattr(rec.beam, key) for key in _BEAM_KEYS} | stated.get("beam", {}))
+    lines += _toml_table(["tip"], {key: getattr(rec.tip, key) for key in _TIP_KEYS} | stated.get("tip", {}))
     lines += _toml_table(["excitation"], _excitation_keys(rec.excitation))
-    for sensor in rec.sensors:
-        lines += ["", "[[sensor]]", *_toml_pairs({key: getattr(sensor, key) for key in _SENSOR_KEYS})]
+    stated_sensors = [*stated.get("sensor", []), *[{}] * len(rec.sensors)]
+    for sensor, stated_keys in zip(rec.sensors, stated_sensors):
+        keys = {key: getattr(sensor, key) for key in _SENSOR_KEYS} | stated_keys
+        lines += ["", "[[sensor]]", *_toml_pairs(keys)]
     lines += _toml_table(["recording"], {"file": DEFAULT_CSV, "time_column": time_column})
     for key, table in tables.items():
         lines += _toml_table([key], table)

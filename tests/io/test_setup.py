@@ -1,0 +1,128 @@
+"""The optional set-up keys of beam.toml (docs/format.md): read, kept, written back, checked when read.
+
+FORMAT.md carries keys it does not name along without refusing them, so a bad set-up value must
+not stop a recording from loading; ``Recording.setup`` refuses it, naming the file, key and fix.
+"""
+
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bayesbeam.io import RecordingError, load_recording, write_recording
+from bayesbeam.io.recording import MIN_SAMPLES, SetUp
+
+DATA = Path(__file__).resolve().parents[2] / "data"
+REPO = DATA.parent
+#: every recording shipped in the repository: the examples, the real record, the studies' records
+SHIPPED = sorted(p.parent for p in REPO.glob("data/**/beam.toml")) + sorted(
+    p.parent for p in REPO.glob("studies/*/recordings/*/beam.toml"))
+
+STATED = """\
+[beam]
+length = 0.759
+length_tolerance = 0.005
+density = 7850.0
+area = 2.6039e-4
+second_moment = 5.7329e-10
+modulus = 2.0e11
+
+[tip]
+mass = 0.0
+rotary_inertia = 0.0
+mass_tolerance = 0.002
+rotary_inertia_tolerance = 1e-7
+
+[excitation]
+kind = "free_decay"
+start = 0.01
+
+[[sensor]]
+name = "tip"
+location = 0.75
+quantity = "acceleration"
+column = "accel_tip"
+mass = 0.006
+location_tolerance = 0.004
+
+[[sensor]]
+name = "mid"
+location = 0.4
+quantity = "acceleration"
+column = "accel_mid"
+"""
+CSV = "time,accel_tip,accel_mid\n" + "".join(f"{k / 1024!r},{float(np.sin(k / 7.0))!r},{float(np.cos(k / 5.0))!r}\n"
+                                              for k in range(MIN_SAMPLES + 8))
+
+
+def make(tmp_path: Path, toml: str = STATED) -> Path:
+    directory = tmp_path / "rec"
+    directory.mkdir()
+    (directory / "beam.toml").write_text(toml, encoding="utf-8")
+    (directory / "recording.csv").write_text(CSV, encoding="utf-8")
+    return directory
+
+
+def quietly_loaded(directory: Path):
+    """load_recording with every warning an error: a set-up key must not be taken for a typo."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        return load_recording(directory)
+
+
+def test_the_stated_setup_is_read_without_warnings_and_exposed(tmp_path):
+    rec = quietly_loaded(make(tmp_path))
+    assert rec.setup == SetUp(length_tolerance=0.005, tip_mass_tolerance=0.002, tip_rotary_inertia_tolerance=1e-7,
+                              sensor_masses=(0.006, None), location_tolerances=(0.004, 0.0))
+    assert rec.setup.stated_mass == 0.006
+    # the nominal description is what it was: the set-up keys change no other field
+    assert rec.beam.length == 0.759 and rec.sensors[0].location == 0.75 and rec.tip.mass == 0.0
+
+
+def test_write_and_load_keep_the_stated_setup(tmp_path):
+    rec = quietly_loaded(make(tmp_path))
+    back = quietly_loaded(write_recording(rec, tmp_path / "copy"))
+    assert back == rec and back.setup == rec.setup and back.setup_keys == rec.setup_keys
+
+
+@pytest.mark.parametrize(("old", "new", "where"), [
+    ("mass = 0.006", "mass = -0.006", "[[sensor]] #1 .mass"),
+    ("mass = 0.006", 'mass = "6 g"', "[[sensor]] #1 .mass"),
+    ("location_tolerance = 0.004", "location_tolerance = nan", "[[sensor]] #1 .location_tolerance"),
+    ("length_tolerance = 0.005", "length_tolerance = inf", "[beam] .length_tolerance"),
+    ("length_tolerance = 0.005", "length_tolerance = -0.001", "[beam] .length_tolerance"),
+    ("length_tolerance = 0.005", "length_tolerance = 0.759", "[beam] .length_tolerance"),   # not below l
+    ("mass_tolerance = 0.002", "mass_tolerance = -1e-3", "[tip] .mass_tolerance"),
+    ("rotary_inertia_tolerance = 1e-7", "rotary_inertia_tolerance = -inf", "[tip] .rotary_inertia_tolerance"),
+])
+def test_a_bad_setup_value_loads_but_is_refused_when_read(tmp_path, old, new, where):
+    assert old in STATED
+    rec = quietly_loaded(make(tmp_path, STATED.replace(old, new, 1)))   # FORMAT.md: carried along
+    with pytest.raises(RecordingError) as info:
+        _ = rec.setup
+    err, message = info.value, str(info.value)
+    assert Path(err.file).name == "beam.toml" and err.where == where and where in message
+    assert "Fix:" in message and err.fix
+
+
+def test_a_stated_mass_of_zero_is_a_statement_not_an_absence(tmp_path):
+    """A non-contact sensor (a laser vibrometer) adds no mass: 0 is accepted and kept apart from
+    a mass not stated (None)."""
+    rec = quietly_loaded(make(tmp_path, STATED.replace("mass = 0.006", "mass = 0.0", 1)))
+    assert rec.setup.sensor_masses == (0.0, None)
+
+
+@pytest.mark.parametrize("directory", SHIPPED, ids=lambda p: p.name)
+def test_shipped_recordings_load_as_before(directory):
+    """No shipped recording states a set-up key, so each loads without a warning, carries none,
+    and reads as the set-up of its nominal values (nothing stated, every tolerance 0)."""
+    rec = quietly_loaded(directory)
+    assert rec.setup_keys == {}
+    n = len(rec.sensors)
+    assert rec.setup == SetUp(sensor_masses=(None,) * n, location_tolerances=(0.0,) * n)
+
+
+def test_the_shipped_list_holds_the_examples_and_the_real_record():
+    names = {p.name for p in SHIPPED}
+    assert {"paper_q3_hammer", "alu_q1_release", "paper_rootcomp_hammer", "recording"} <= names
