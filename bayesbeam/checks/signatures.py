@@ -299,7 +299,7 @@ def _candidate(name, aug, posterior, theta, base_features, space, mismatch, leve
     model = posterior.likelihood.model
     effect = catalogue.REGISTRY[name]
     parameter = effect.parameters[0]
-    prior = default_priors(model.recording.beam, (parameter,), {})[parameter]
+    prior = default_priors(model.recording.beam, (parameter,), {}, model.recording.setup)[parameter]
     support = [float(np.exp(v)) if prior.log_scale else float(v) for v in prior.bounds()]
     sig = _Signature(aug, parameter, posterior, theta, base_features, space)
     value, interval, chi2, best = (_grid_fit if effect.linear else _linearised_fit)(sig, space, support)

@@ -15,7 +15,7 @@ beta           1/s             log-uniform [1e-2, 1e4]                     memor
 a              N s             log-uniform [1e-6, 1e2]                     spatial hysteresis
 b              m               log-uniform [1e-3 l, l]                     kernel width
 k_theta        N m/rad         log-uniform [EI_0/l, 1e5 EI_0/l]            root spring
-m_s            kg              log-uniform [1e-4, 0.2 rho A l]             sensor mass
+m_s            kg              log-uniform [1e-4, 0.2] rho A l             sensor mass (*)
 P              N               uniform [-0.5 P_cr, 10 P_cr]                axial load
 c_q            N s^2/m^3       log-uniform [1e-4, 1e3]                     quadratic drag
 F_c            N               log-uniform [1e-5, 10]                      dry friction
@@ -32,6 +32,15 @@ phi_<s>        -               uniform [-0.99, 0.99]                       AR(1)
 
 P_cr = pi^2 EI_0 / (4 l^2) is the cantilever's Euler buckling load. Outside its support a prior
 returns -inf; it never raises inside the sampler.
+
+(*) What beam.toml states about the set-up (``Recording.setup``) replaces a default: when the
+first sensor, where the ``sensor_mass`` effect puts m_s, states its own mass m (> 0), m_s is
+log-normal with median m and sd(log) :data:`SENSOR_MASS_SIGMA` = 0.3. The maker's mass is exact to
+a few per cent, but the mass that moves with the beam also holds the mounting (stud, wax or
+magnet) and the moving part of the cable, and the sensor is not a point: one sd is a factor 1.35,
+three sds a factor 2.5 either way. Without a stated mass the default scales with the beam's mass
+rho A l: a sensor of 1e-4 rho A l moves no frequency by more than 2e-4 of itself, one of 0.2
+rho A l is a heavier body than any sensor mounted on a beam.
 
 Why the literature mechanisms' priors: a fractional Kelvin-Voigt beam's loss factor is about
 (c_f/EI) omega^nu sin(nu pi/2), so c_f/EI_0 in [1e-8, 1] spans loss factors of 1e-8 to 1 at 1 rad/s
@@ -147,7 +156,7 @@ DEFAULTS: dict[str, tuple[str, tuple[float, str], tuple[float, str]]] = {
     "a": ("loguniform", (1e-6, ""), (1e2, "")),
     "b": ("loguniform", (1e-3, "l"), (1.0, "l")),
     "k_theta": ("loguniform", (1.0, "EI_0/l"), (1e5, "EI_0/l")),
-    "m_s": ("loguniform", (1e-4, ""), (0.2, "rho A l")),
+    "m_s": ("loguniform", (1e-4, "rho A l"), (0.2, "rho A l")),
     "P": ("uniform", (-0.5, "P_cr"), (10.0, "P_cr")),
     "c_q": ("loguniform", (1e-4, ""), (1e3, "")),
     "F_c": ("loguniform", (1e-5, ""), (10.0, "")),
@@ -176,19 +185,39 @@ SCALES = {
 }
 
 
-def default_priors(beam, parameter_names, channel_rms: dict[str, float]) -> dict[str, Prior]:
-    """The default table above, for a model's parameters and a recording's channels."""
+#: sd of log m_s about the first sensor's stated mass (see (*) above)
+SENSOR_MASS_SIGMA = 0.3
+
+
+def default_priors(beam, parameter_names, channel_rms: dict[str, float], setup=None) -> dict[str, Prior]:
+    """The default table above, for a model's parameters and a recording's channels; ``setup``
+    (a recording's :class:`~bayesbeam.io.recording.SetUp`) replaces the defaults it informs."""
     out = {}
     for name in parameter_names:
         if name not in DEFAULTS:
             raise ValueError(f"no default prior for parameter {name!r}; give one in the fit file "
                              f"as [prior.{name}]")
         kind, (a, scale_a), (b, scale_b) = DEFAULTS[name]
-        out[name] = Prior(kind, a * SCALES[scale_a](beam), b * SCALES[scale_b](beam))
+        out[name] = setup_prior(name, setup) or Prior(kind, a * SCALES[scale_a](beam), b * SCALES[scale_b](beam))
     kind, (low, _), (high, _) = NOISE_DEFAULTS["sigma"]
     for channel, rms in channel_rms.items():
         out[f"sigma_{channel}"] = Prior(kind, low * rms, high * rms)
     return out
+
+
+def stated_sensor_mass(setup) -> float | None:
+    """The first sensor's stated mass (kg), where the ``sensor_mass`` effect puts m_s; None when
+    ``setup`` is None or states none."""
+    masses = () if setup is None else setup.sensor_masses
+    return masses[0] if masses else None
+
+
+def setup_prior(name: str, setup) -> Prior | None:
+    """The prior the stated set-up gives parameter ``name``, or None where it states nothing about it."""
+    mass = stated_sensor_mass(setup)
+    if name == "m_s" and mass:
+        return Prior("lognormal", mass, SENSOR_MASS_SIGMA)
+    return None
 
 
 def noise_prior(kind_of_parameter: str) -> Prior:
