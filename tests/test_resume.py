@@ -24,18 +24,19 @@ from tests.inference import cases
 DATA = Path(__file__).resolve().parents[1] / "data"
 HAMMER = str(DATA / "examples" / "paper_q3_hammer")
 FIT = ["--model", "air", "--stop", "0.5", "--max-frequency", "60", "--n-intervals", "8", "--walkers", "8",
-       "--seed", "3", "--processes", "1", "--quiet"]
-#: tau_factor 10 instead of 50 lets this short chain converge (at 750 steps), so that the resumed run
-#: must reproduce the uninterrupted run's stopping decision as well as its draws
+       "--seed", "3", "--executor", "serial", "--quiet"]
+#: tau_factor 10 instead of 50 lets this short chain converge (at 1750 steps with seed 3), so that the
+#: resumed run must reproduce the uninterrupted run's stopping decision as well as its draws
 FIT_FILE = "[fit]\ntau_factor = 10\n"
 CAP = 3000  # --max-steps: far above where the chain converges, so convergence ends both runs
 KILL_AFTER = 100  # steps saved before the first run is killed: well before convergence
 
 
-def _bayesbeam(*args, **popen):
+def _bayesbeam(*args):
+    """A ``bayesbeam`` process (--quiet: its few lines of output fit the pipes unread)."""
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
     return subprocess.Popen([sys.executable, "-m", "bayesbeam.cli", *args], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
 def _saved_steps(path: Path) -> int:
