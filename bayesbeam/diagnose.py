@@ -30,7 +30,11 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
    (a root spring made q2 beat the true q1 by 361 nats on ``paper_rootcomp_hammer``). The final
    model becomes another damping model + effects only when that model's log evidence beats it by
    the same decisive margin as an effect needs.
-7. **Show.** Whatever beam physics the final model still misses (map regions not labelled as
+7. **Stand-ins.** An effect whose posterior median lies outside what the recording's stated
+   set-up allows (:func:`stand_in`) is reported as a stand-in, "a structural mismatch the
+   catalogue cannot name", not as missing physics found: the fit uses its freedom for something
+   else. It is added like any effect (it does improve the fit), and diagnosis.json says which.
+8. **Show.** Whatever beam physics the final model still misses (map regions not labelled as
    pickup) is reported as ``unexplained``, with where it is, when its misfit is also practically
    significant: at least :data:`~bayesbeam.checks.discrepancy.PRACTICAL_SHARE` (1 %) of the
    channel's signal (:mod:`bayesbeam.checks.discrepancy`, section (e)). Smaller statistically
@@ -50,13 +54,17 @@ from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locat
 from bayesbeam.checks.signatures import rank_effects
 from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
 from bayesbeam.compare import summarise as summarise_comparison
-from bayesbeam.inference.priors import default_priors
+from bayesbeam.inference.priors import SENSOR_MASS_SIGMA, default_priors, stated_sensor_mass
 from bayesbeam.model import BeamModel, join_model, resolve_model
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
 DECISIVE = 5.0
 #: and by this many standard errors of the evidence difference
 DECISIVE_SD = 3.0
+#: prior sds of log m_s a sensor mass's posterior median may lie from the stated mass (:func:`stand_in`)
+STAND_IN_SDS = 3.0
+#: standard gravity, m/s^2
+GRAVITY = 9.80665
 
 
 @dataclass
@@ -262,7 +270,7 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
     if rec.excitation.kind == "free_decay":
         return None
     model = BeamModel(rec, spec, 6)
-    priors = default_priors(rec.beam, model.parameter_names, {})
+    priors = default_priors(rec.beam, model.parameter_names, {}, rec.setup)
     values = {n: known[n] if n in known else float(priors[n].to_value(priors[n].median())) for n in model.parameter_names}
     try:
         form = model.system(values).form
@@ -412,6 +420,7 @@ def summarise(d: Diagnosis) -> dict:
         "mismatch": d.baseline_mismatch.regions,
         "candidates": candidates,
         "added": d.added,
+        "stand_ins": [c["effect"] for c in candidates if c["added"] and c["stand_in"]],
         "unexplained": d.unexplained,
         "unexplained_regions": d.remaining(),
         "negligible_regions": d.negligible(),
@@ -452,10 +461,59 @@ def effect_parameters(trial: Trial) -> dict:
     return {k: v for k, v in posterior_summary(trial.result).items() if k in effect.parameters}
 
 
+def allowed_by_setup(effect: str, rec) -> dict[str, tuple[float, float]]:
+    """Per parameter of ``effect``, the range (SI units) the recording's stated set-up allows it;
+    empty where the set-up bounds nothing. See :func:`stand_in` for the rule and its reasons."""
+    setup = rec.setup
+    mass = stated_sensor_mass(setup)
+    if effect == "sensor_mass" and mass is not None:
+        spread = float(np.exp(STAND_IN_SDS * SENSOR_MASS_SIGMA))
+        return {"m_s": (mass / spread, mass * spread)}
+    if effect == "axial_load":
+        weight = GRAVITY * (rec.beam.rho_a * (rec.beam.length + setup.length_tolerance) + rec.tip.mass
+                            + setup.tip_mass_tolerance + setup.stated_mass)
+        return {"P": (-weight, weight)}
+    return {}
+
+
+def stand_in(effect: str, parameters: dict, rec) -> dict | None:
+    """Whether a fitted ``effect`` is a stand-in: its posterior median lies outside what the set-up
+    of ``rec`` allows. ``parameters``: the effect's :func:`effect_parameters` (q50 and unit per
+    parameter). Returns None, or the parameter, its median, the allowed range and why (SI units).
+
+    The rule, per effect (others have no set-up bound and are never stand-ins):
+
+    * ``sensor_mass`` when the first sensor, where m_s sits, states its own mass m: the median of
+      m_s lies more than :data:`STAND_IN_SDS` = 3 prior sds of log m_s
+      (:data:`~bayesbeam.inference.priors.SENSOR_MASS_SIGMA`) from m, outside m / 2.46 to
+      2.46 m. That prior already allows for the mounting, the cable and a sensor that is not a
+      point; three sds beyond it the fitted "mass" is not the sensor's. (A stated mass of 0, a
+      non-contact sensor, allows none.) Three sds lie inside the 4 sds the optimiser searches,
+      so a posterior pushed there can show it.
+    * ``axial_load``: abs(median P) exceeds the weight of everything beyond the clamp,
+      g (rho A (l + length_tolerance) + m_T + mass_tolerance + the stated sensor masses). A
+      cantilever's tip is free, so by statics the axial force at any section is the axial share
+      of the body forces beyond it: at most that weight, reached when the beam hangs (tension)
+      or stands (compression) vertically. A larger P is no tension or compression this set-up
+      can hold; it stands in for whatever shifts the modes in a geometric stiffness's proportions.
+    """
+    for name, (low, high) in allowed_by_setup(effect, rec).items():
+        median = parameters[name]["q50"]
+        if not low <= median <= high:
+            why = (f"more than {STAND_IN_SDS:g} prior sds of log m_s from the stated sensor mass "
+                   f"{stated_sensor_mass(rec.setup):.4g} kg" if name == "m_s" else
+                   "beyond the weight of beam, tip body and stated sensors, the largest axial force a "
+                   "cantilever with a free tip carries")
+            return {"parameter": name, "median": median, "allowed": [low, high], "unit": parameters[name]["unit"],
+                    "why": why}
+    return None
+
+
 def _trial_entry(t: Trial, signature) -> dict:
+    parameters = effect_parameters(t)
     return {"effect": t.effect, "round": t.round, "model": t.result.name,
             "delta_log_evidence": t.log_bayes_factor, "delta_log_evidence_sd": t.log_bayes_factor_sd,
-            "parameters": effect_parameters(t),
+            "parameters": parameters, "stand_in": stand_in(t.effect, parameters, t.result.problem.model.recording),
             "rms_standardized_residual": t.mismatch.rms_standardized_residual, "flags": flags(t.mismatch),
             "noise": t.mismatch.noise,
             "decisive": t.decisive, "map_improved": t.improved, "added": t.added,
@@ -477,18 +535,23 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     if not beam_regions(bmap) and not d.trials:
         text.append("Nothing the damping model leaves out shows above the noise: no effect was added.")
         return " ".join(text)
+    rec = d.baseline.problem.model.recording
+    verdicts = [stand_in(t.effect, summary, rec) for t, summary in zip(d.trials, parameters)]
     for t, summary in zip(d.trials, parameters):
         params = _estimates(summary)
         verdict = "added" if t.added else "not added: " + _refusal(t, d.trials)
         text.append(f"Round {t.round}, {t.effect}: log Bayes factor {t.log_bayes_factor:.1f} +- "
                     f"{t.log_bayes_factor_sd:.2g} nats against {d.chain()[t.round - 1][0].name}, RMS standardized residual "
                     f"{t.mismatch.rms_standardized_residual:.2f}, {flags(t.mismatch)} flag(s); {params}: {verdict}.")
+    found = [t.effect for t, verdict in zip(d.trials, verdicts) if t.added and not verdict]
     if d.added:
-        text.append(f"Missing physics found: {' and '.join(d.added)}. The fit improved from RMS "
+        text.append(("Missing physics found: " + " and ".join(found) if found else
+                     "No missing physics the set-up allows was found") + ". The fit improved from RMS "
                     f"{bmap.rms_standardized_residual:.2f} to {fmap.rms_standardized_residual:.2f}, log evidence "
                     f"from {d.baseline.evidence.log_z:.1f} to {d.final.evidence.log_z:.1f}.")
     else:
         text.append("No catalogue effect explains the mismatch.")
+    text += [_stand_in_sentence(t.effect, verdict) for t, verdict in zip(d.trials, verdicts) if t.added and verdict]
     if d.not_fitted:
         text.append("Not fitted: " + "; ".join(f"{n.model} ({n.reason})" for n in d.not_fitted) + ".")
     if d.recheck is not None:
@@ -502,6 +565,13 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
         text.append(f"{len(d.negligible())} region(s) stand statistically above the noise but carry less than "
                     f"{PRACTICAL_SHARE:.0%} of their channel's signal: too small to be a finding.")
     return " ".join(text)
+
+
+def _stand_in_sentence(effect: str, verdict: dict) -> str:
+    low, high = verdict["allowed"]
+    return (f"Stand-in, not a finding: {effect}'s {verdict['parameter']} = {verdict['median']:.4g} {verdict['unit']} "
+            f"(posterior median) lies outside the {low:.4g} to {high:.4g} {verdict['unit']} the set-up allows "
+            f"({verdict['why']}): {effect} stands in for a structural mismatch the catalogue cannot name.")
 
 
 def _estimates(summary: dict) -> str:

@@ -1,0 +1,116 @@
+"""The stand-in rule of the diagnosis (bayesbeam.diagnose.stand_in, docs/diagnosis.md) on constructed trials.
+
+An effect whose posterior median lies outside what the stated set-up allows is reported as a
+stand-in, not as missing physics found. The allowed ranges are computed here from the set-up's
+numbers: a stated sensor mass m gives m exp(+-3 x 0.3) for m_s (three prior sds of log m_s), and
+an axial load is bounded by the weight g (rho A (l + length_tolerance) + m_T + mass_tolerance +
+stated sensor masses) of everything beyond the clamp.
+"""
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from bayesbeam.diagnose import Diagnosis, Trial, _trial_entry, paragraph, stand_in
+from bayesbeam.io import Sensor, TipBody
+from tests.inference import cases
+
+STATED_MASS = 0.006         # kg, the tip accelerometer
+SETUP = {"beam": {"length_tolerance": 0.005}, "tip": {"mass_tolerance": 0.002},
+         "sensor": [{"mass": STATED_MASS}, {"mass": 0.004}]}
+SENSORS = (Sensor("accel_tip", 1.0, "acceleration", "accel_tip"), Sensor("mid", 0.5, "acceleration", "accel_mid"))
+#: m_s may lie within STATED_MASS x / exp(3 x 0.3) = 2.4596
+SPREAD = np.exp(3 * 0.3)
+#: the paper beam (1710 kg/m^3 x 0.597e-3 m^2, l = 1 m + 5 mm) with a 50 g (+ 2 g) tip and sensors
+#: of 6 g and 4 g: the most the set-up can weigh, N
+WEIGHT = 9.80665 * (1710.0 * 0.597e-3 * 1.005 + 0.05 + 0.002 + 0.006 + 0.004)
+
+
+def recording(setup_keys=SETUP):
+    rec = cases.base_recording(fs=512.0, duration=0.5, sensors=SENSORS, tip=TipBody(0.05, 0.0))
+    return replace(rec, setup_keys=setup_keys)
+
+
+def summary(name: str, median: float, unit: str) -> dict:
+    """An effect_parameters entry: only the median and unit matter to the rule."""
+    return {name: {"mean": median, "sd": 0.1 * abs(median), "q05": 0.9 * median, "q50": median,
+                   "q95": 1.1 * median, "r_hat": 1.0, "unit": unit}}
+
+
+@pytest.mark.parametrize(("factor", "expected"), [(1.0, False), (SPREAD * 0.99, False), (1 / (SPREAD * 0.99), False),
+                                                  (SPREAD * 1.01, True), (1 / (SPREAD * 1.01), True),
+                                                  (0.080 / STATED_MASS, True)])
+def test_a_sensor_mass_three_prior_sds_from_the_stated_one_is_a_stand_in(factor, expected):
+    """1 % inside the 3-sd factor 2.46 either way is a sensor mass; 1 % beyond it, and the real
+    record's 80 g on a 6 g accelerometer, stand in for something else."""
+    verdict = stand_in("sensor_mass", summary("m_s", STATED_MASS * factor, "kg"), recording())
+    assert (verdict is not None) == expected
+    if expected:
+        assert verdict["parameter"] == "m_s" and verdict["median"] == pytest.approx(STATED_MASS * factor)
+        assert verdict["allowed"] == pytest.approx([STATED_MASS / SPREAD, STATED_MASS * SPREAD], rel=1e-12)
+
+
+def test_without_a_stated_mass_no_sensor_mass_is_a_stand_in():
+    """Nothing stated on the first sensor (where m_s sits): the set-up bounds nothing."""
+    unstated = {**SETUP, "sensor": [{}, {"mass": 0.004}]}
+    assert stand_in("sensor_mass", summary("m_s", 0.080, "kg"), recording(unstated)) is None
+
+
+@pytest.mark.parametrize(("load", "expected"), [(22.0, True), (0.99 * WEIGHT, False), (-0.99 * WEIGHT, False),
+                                                (1.01 * WEIGHT, True), (-1.01 * WEIGHT, True)])
+def test_an_axial_load_beyond_the_weight_of_the_set_up_is_a_stand_in(load, expected):
+    """The bound is 10.67 N here: the real record's 22 N tension is beyond it, a P 1 % inside it
+    either way is not."""
+    verdict = stand_in("axial_load", summary("P", load, "N"), recording())
+    assert (verdict is not None) == expected
+    if expected:
+        assert verdict["allowed"] == pytest.approx([-WEIGHT, WEIGHT], rel=1e-12)
+
+
+def test_an_effect_the_set_up_does_not_bound_is_never_a_stand_in():
+    assert stand_in("root_compliance", summary("k_theta", 1e9, "N m/rad"), recording()) is None
+
+
+# ---------------------------------------------------------------------------- in diagnosis.json and the summary
+def _map(rms):
+    return SimpleNamespace(rms_standardized_residual=rms, spectrogram=SimpleNamespace(significant=np.zeros(3, bool)),
+                           modes=[], phase={}, regions=[], noise={})
+
+
+def _result(name, log_z, rec, effect=None, median=None):
+    """A fitted model: 2 SMC repeats x 50 draws of its effect's parameter about ``median``."""
+    parameters = () if effect is None else {"sensor_mass": ("m_s",), "root_compliance": ("k_theta",)}[effect]
+    draws = median * np.exp(0.01 * np.random.default_rng(0).standard_normal((2, 50, 1))) if effect else None
+    model = SimpleNamespace(recording=rec, units={"m_s": "kg", "k_theta": "N m/rad"},
+                            effects=[SimpleNamespace(name=effect, parameters=parameters)] if effect else [])
+    return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=0.1),
+                           problem=SimpleNamespace(model=model, posterior=SimpleNamespace(names=parameters)),
+                           values=lambda: draws)
+
+
+def diagnosis(effect, median):
+    rec = recording()
+    base = _result("q1", 100.0, rec)
+    trial = Trial(1, effect, _result(f"q1+{effect}", 400.0, rec, effect, median), _map(1.0), 300.0, 0.2,
+                  decisive=True, improved=True, added=True)
+    return Diagnosis(base, _map(2.0), [], [trial], trial.result, trial.mismatch, None, 1.0)
+
+
+def test_a_stand_in_is_marked_in_its_entry_and_named_as_such_in_the_summary():
+    d = diagnosis("sensor_mass", 0.080)
+    entry = _trial_entry(d.trials[0], None)
+    assert entry["added"] and entry["stand_in"]["parameter"] == "m_s"
+    assert entry["stand_in"]["median"] == pytest.approx(0.080, rel=0.01)   # 100 draws of sd(log) 0.01
+    text = paragraph(d, [entry["parameters"]])
+    assert "Stand-in, not a finding: sensor_mass's m_s" in text
+    assert "a structural mismatch the catalogue cannot name" in text
+    assert "Missing physics found" not in text and "No missing physics the set-up allows was found" in text
+
+
+def test_an_effect_within_the_set_up_is_a_finding():
+    d = diagnosis("sensor_mass", 0.0065)
+    entry = _trial_entry(d.trials[0], None)
+    assert entry["stand_in"] is None
+    text = paragraph(d, [entry["parameters"]])
+    assert "Missing physics found: sensor_mass." in text and "Stand-in" not in text
