@@ -11,7 +11,9 @@ from bayesbeam.io import Beam, Excitation, Recording, Sensor, TipBody, write_rec
 from bayesbeam.io.atomic import write_text
 
 from . import integrate
+from .augmented import relaxation_blocks
 from .daq import AntiAlias
+from .relaxation import RELAXATION_KEYS
 from .system import BeamCase, full_blocks, matrices, modal_blocks
 
 #: Gaussian pulses start this many standard deviations after the first simulated instant
@@ -101,9 +103,11 @@ def _simulate(case: BeamCase, excitation, fs: float, n: int, numerics: Numerics)
 def _blocks(case: BeamCase, excitation, fs: float, numerics: Numerics):
     mats = matrices(case, numerics.n_elements)
     load_at = excitation.location if isinstance(excitation, Hammer) else case.length
+    omega_cut = numerics.omega_cut or 2 * np.pi * fs * numerics.oversample / 2
+    if case.relaxes:
+        return relaxation_blocks(case, mats, load_at, omega_cut, numerics.du)
     if not case.has_memory:
         return full_blocks(case, mats, load_at)
-    omega_cut = numerics.omega_cut or 2 * np.pi * fs * numerics.oversample / 2
     return modal_blocks(case, mats, load_at, omega_cut, numerics.du)
 
 
@@ -120,8 +124,8 @@ def _release(blocks, tip_load: float, times: np.ndarray, h: float) -> np.ndarray
 
 
 MECHANISM_KEYS = {"air": ("gamma",), "strain_rate": ("cdI",), "time_hysteresis": ("alpha", "beta"),
-                  "spatial_hysteresis": ("a", "b")}
-EFFECT_NAMES = {"k_theta": "root_compliance", "m_s": "sensor_mass", "P": "axial_load", "tau": "measurement_delay"}
+                  "spatial_hysteresis": ("a", "b"), **RELAXATION_KEYS}
+EFFECT_NAMES = {"k_theta": "root_compliance", "c_theta": "root_damping", "m_s": "sensor_mass", "P": "axial_load", "tau": "measurement_delay"}
 TIP_ACCELEROMETER = "accel_tip"
 NOTES = {"simulator": "tests.reference: Hermite cubic finite elements, exact exponential stepping",
          "daq": "every channel passes one zero-phase Kaiser-windowed-sinc low-pass (flat to 1e-5 below 0.40 fs, "
@@ -131,13 +135,15 @@ NOTES = {"simulator": "tests.reference: Hermite cubic finite elements, exact exp
 def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float, EI: float | None = None,
            tip: TipBody | None = None, effects: dict | None = None, sensors: tuple[Sensor, ...] | None = None,
            noise: Noise = Noise(), seed: int = 0, out=None, numerics: Numerics = Numerics(),
-           name: str = "reference") -> Recording:
+           name: str = "reference", material: dict | None = None) -> Recording:
     """Simulate a test of ``beam`` and return it as a Recording; with ``out``, also write it there.
 
     beam: the beam as ``beam.toml`` states it (its ``modulus`` is the nominal one);
     EI: the true bending stiffness (N m^2), default ``beam.nominal_EI``; tip: default none;
-    damping: the paper's parameters (gamma, cdI, alpha, beta, a, b; SI units);
-    effects: k_theta (N m/rad), m_s (kg, at the first sensor), P (N), tau (s);
+    damping: the paper's parameters (gamma, cdI, alpha, beta, a, b; SI units) or the literature's
+    (c_e, mu; c_f, nu; Delta, tau_T: :mod:`tests.reference.relaxation`);
+    effects: k_theta (N m/rad), c_theta (N m s/rad), m_s (kg, at the first sensor), P (N), tau (s);
+    material: a ``[material]`` table written to beam.toml as given (docs/format.md);
     excitation: :class:`Hammer` (force channel "force") or :class:`Release` (no force channel);
     sensors: default a tip accelerometer; noise: :class:`Noise`, drawn from ``seed``.
     ``out`` gets beam.toml, recording.csv and truth.json (the parameters, noise sds, numerics).
@@ -159,7 +165,7 @@ def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float,
     else:
         described = Excitation("release", tip_load=excitation.tip_load)
     rec = Recording(beam, tip, described, sensors, np.arange(n) / fs, signals, force,
-                    extra={"notes": NOTES})
+                    extra={"notes": NOTES, **({"material": dict(material)} if material else {})})
     if out is not None:
         truth = _truth(name, case, excitation, fs, n, seed, sensors, sensor_sd, force_sd, noise, numerics)
         write_recording(rec, out, overwrite=True)

@@ -2,7 +2,7 @@ r"""The beam's linear state-space model, assembled from :mod:`tests.reference.fe
 
 .. math:: M\ddot w + D\dot w + K w - K_0\int_0^\infty g(\sigma)\,w(t-\sigma)\,d\sigma = b\,f(t)
 
-with :math:`K = EI\,K_0 + P\,G_0 + k_\theta e e^T`, :math:`D = \gamma M_0 + c_dI\,K_0 + D_{sh}(a, b)`,
+with :math:`K = EI\,K_0 + P\,G_0 + k_\theta e e^T`, :math:`D = \gamma M_0 + c_dI\,K_0 + D_{sh}(a, b) + c_\theta e e^T`,
 :math:`M = \rho A\,M_0` + tip body + sensor mass, and b the load row at the force's position.
 
 Two first-order forms, both integrated exactly by :mod:`tests.reference.integrate`:
@@ -13,7 +13,9 @@ Two first-order forms, both integrated exactly by :mod:`tests.reference.integrat
   (:mod:`tests.reference.memory`): one small block per mode when D and :math:`K_0` are diagonal
   in those modes (time hysteresis alone, with strain rate, a sensor mass or a delay), else one
   block of all modes (with a root spring, an axial load, or air and a tip body), whose size
-  m (J + 3) asks for fewer modes or exponentials than the defaults.
+  m (J + 3) asks for fewer modes or exponentials than the defaults;
+* with a literature mechanism relaxing the moment, the internal-variable form of
+  :mod:`tests.reference.augmented`.
 
 A block is (A, B, C, F): :math:`\dot x = A x + B f`, outputs :math:`y = C x + F f` where each
 sensor row reads the deflection, velocity or acceleration (:math:`C = S_v A`, :math:`F = S_v B`).
@@ -27,9 +29,12 @@ from scipy import linalg
 
 from .fem import Mesh
 from .memory import SumOfExponentials
+from .relaxation import RELAXATION_KEYS
 
-DAMPING_KEYS = ("gamma", "cdI", "alpha", "beta", "r", "a", "b")
-EFFECT_KEYS = ("k_theta", "m_s", "P", "tau")
+DAMPING_KEYS = ("gamma", "cdI", "alpha", "beta", "r", "a", "b", *(k for keys in RELAXATION_KEYS.values() for k in keys))
+EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "P", "tau")
+#: parameters that come in pairs
+PAIRS = (("alpha", "beta"), ("a", "b"), *RELAXATION_KEYS.values())
 ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
 
 
@@ -38,9 +43,11 @@ class BeamCase:
     """Everything the simulator needs, SI units.
 
     length l (m), rho_a (kg/m), EI (N m^2), m_T (kg), J (kg m^2); ``damping`` with the paper's
-    names (gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, a N s, b m); ``effects``:
-    k_theta (N m/rad, root spring), m_s (kg, point mass at the first sensor), P (N, axial load,
-    tension positive), tau (s, delay of the response channels). ``sensors``: (location m, quantity).
+    names (gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, a N s, b m) or the literature's
+    (:mod:`tests.reference.relaxation`: c_e N m^2 s and mu 1/s, c_f N m^2 s^nu and nu, Delta and
+    tau_T s); ``effects``: k_theta (N m/rad, root spring), c_theta (N m s/rad, a root dashpot beside
+    it), m_s (kg, point mass at the first sensor), P (N, axial load, tension positive), tau (s,
+    delay of the response channels). ``sensors``: (location m, quantity).
     """
 
     length: float
@@ -62,8 +69,17 @@ class BeamCase:
         if negative or min(self.length, self.rho_a, self.EI) <= 0 or min(self.m_T, self.J) < 0:
             raise ValueError(f"parameters must be finite and non-negative (P may be negative), l, rho A and EI "
                              f"positive; got {negative or (self.length, self.rho_a, self.EI, self.m_T, self.J)}")
-        if ("alpha" in self.damping) != ("beta" in self.damping) or ("a" in self.damping) != ("b" in self.damping):
-            raise ValueError("time hysteresis needs both alpha and beta, spatial hysteresis both a and b")
+        unpaired = [pair for pair in PAIRS if (pair[0] in self.damping) != (pair[1] in self.damping)]
+        if unpaired:
+            raise ValueError(f"damping parameters {unpaired} come in pairs: give both of each")
+        if not self.damping.get("nu", 0.5) < 1:
+            raise ValueError(f"fractional damping needs nu < 1, got {self.damping['nu']} (nu = 1 is cdI)")
+        if "c_theta" in self.effects and "k_theta" not in self.effects:
+            raise ValueError("a root dashpot c_theta needs the root spring k_theta beside it (a rigid clamp has "
+                             "no root slope to damp): give k_theta too")
+        if self.has_memory and self.relaxes:
+            raise ValueError("the reference simulates time hysteresis (alpha, beta) and a relaxing moment "
+                             f"({', '.join(k for keys in RELAXATION_KEYS.values() for k in keys)}) separately")
         if self.damping.get("r", np.inf) != np.inf:
             raise ValueError("the reference simulates time hysteresis with infinite memory only: drop r")
         located = tuple((self.length if x is None else float(x), q) for x, q in self.sensors)
@@ -75,6 +91,11 @@ class BeamCase:
     @property
     def has_memory(self) -> bool:
         return "alpha" in self.damping
+
+    @property
+    def relaxes(self) -> bool:
+        """A literature mechanism relaxes the bending moment (tests.reference.relaxation)."""
+        return any(keys[0] in self.damping for keys in RELAXATION_KEYS.values())
 
     def mesh(self, n_elements: int) -> Mesh:
         return Mesh(self.length, n_elements, "spring" if "k_theta" in self.effects else "clamped")
@@ -101,6 +122,8 @@ def matrices(case: BeamCase, n_elements: int) -> Matrices:
     if "k_theta" in e:
         K = K + e["k_theta"] * mesh.root_spring()
     D = d.get("gamma", 0.0) * mesh.M0 + d.get("cdI", 0.0) * mesh.K0
+    if "c_theta" in e:   # the dashpot resists the root slope's rate as the spring its angle
+        D = D + e["c_theta"] * mesh.root_spring()
     if "a" in d:
         D = D + mesh.spatial_hysteresis(d["a"], d["b"])
     return Matrices(mesh, M, D, K, mesh.K0)
