@@ -114,3 +114,18 @@ def test_an_effect_within_the_set_up_is_a_finding():
     assert entry["stand_in"] is None
     text = paragraph(d, [entry["parameters"]])
     assert "Missing physics found: sensor_mass." in text and "Stand-in" not in text
+
+
+@pytest.mark.parametrize(("median", "words", "not_words"), [
+    (0.080, "Not a finding: sensor_mass stands in for a structural mismatch", "left out of this recording"),
+    (0.0065, "What the damping model q1 left out of this recording: point mass", "Not a finding")])
+def test_the_reports_lead_keeps_a_stand_in_apart_from_the_findings(median, words, not_words):
+    from bayesbeam.report.diagnosis import lead
+
+    d = diagnosis("sensor_mass", median)
+    entry = _trial_entry(d.trials[0], None)
+    model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 400.0}
+    summary = {"baseline": {**model, "model": "q1"}, "unexplained": False, "candidates": [entry],
+               "final": {**model, "model": "q1+sensor_mass", "parameters": entry["parameters"]}}
+    missing = lead(summary)[0]
+    assert words in missing and not_words not in missing

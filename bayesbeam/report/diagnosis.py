@@ -108,8 +108,14 @@ def _missing_sentence(summary) -> str:
         final = summary["final"].get("parameters", {})
         found = "; ".join(f"{_effect_words(c['effect'])} ({c['effect']}), "
                           + ", ".join(_estimate(name, final.get(name, q)) for name, q in c["parameters"].items())
-                          for c in added)
-        return f"What the damping model {base} left out of this recording: {found}."
+                          for c in added if not c.get("stand_in"))
+        # a stand-in improves the fit with a value the stated set-up cannot have (diagnose.stand_in)
+        stand_ins = "; ".join(f"{c['effect']} stands in for a structural mismatch the catalogue cannot name "
+                              f"({c['stand_in']['parameter']} = {c['stand_in']['median']:.4g} {c['stand_in']['unit']}, "
+                              f"{c['stand_in']['why']})" for c in added if c.get("stand_in"))
+        return " ".join(text for text in (
+            found and f"What the damping model {base} left out of this recording: {found}.",
+            stand_ins and f"Not a finding: {stand_ins}.") if text)
     if summary["unexplained"]:
         return (f"Something the damping model {base} leaves out shows above the noise, but no effect of the "
                 f"catalogue explains it (where: Unexplained, below).")
