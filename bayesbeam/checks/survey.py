@@ -100,19 +100,23 @@ def survey(rec) -> Survey:
 
 # ---------------------------------------------------------------------------- what was read
 def describe(rec) -> dict:
-    """The recording's description as read: beam, tip body, excitation, sensors, sampling (SI)."""
-    beam, exc = rec.beam, rec.excitation
+    """The recording's description as read: beam, tip body, excitation, sensors, sampling (SI), with
+    what beam.toml states about the set-up (tolerances, sensor masses: None where not stated).
+    RecordingError for a set-up key a fit would refuse."""
+    beam, exc, setup = rec.beam, rec.excitation, rec.setup
     excitation = {"kind": exc.kind}
     excitation.update({k: getattr(exc, k) for k in ("location", "column", "tip_load", "start")
                        if getattr(exc, k) is not None})
     return {
         "beam": {"length_m": beam.length, "density_kg_m3": beam.density, "area_m2": beam.area,
                  "second_moment_m4": beam.second_moment, "modulus_Pa": beam.modulus,
-                 "EI_N_m2": beam.nominal_EI, "rho_A_kg_m": beam.rho_a},
-        "tip": {"m_T_kg": rec.tip.mass, "J_kg_m2": rec.tip.rotary_inertia},
+                 "EI_N_m2": beam.nominal_EI, "rho_A_kg_m": beam.rho_a, "length_tolerance_m": setup.length_tolerance},
+        "tip": {"m_T_kg": rec.tip.mass, "J_kg_m2": rec.tip.rotary_inertia,
+                "m_T_tolerance_kg": setup.tip_mass_tolerance, "J_tolerance_kg_m2": setup.tip_rotary_inertia_tolerance},
         "excitation": excitation,
         "sensors": [{"name": s.name, "location_m": s.location, "quantity": s.quantity, "column": s.column,
-                     "unit": UNITS[s.quantity]} for s in rec.sensors],
+                     "unit": UNITS[s.quantity], "mass_kg": mass, "location_tolerance_m": tolerance}
+                    for s, mass, tolerance in zip(rec.sensors, setup.sensor_masses, setup.location_tolerances)],
         "fs_hz": rec.fs, "n_samples": rec.n_samples, "duration_s": rec.n_samples / rec.fs,
     }
 
@@ -313,7 +317,12 @@ def report_lines(summary: dict) -> list[str]:
                                else f"m_T = {tip['m_T_kg']:g} kg, J = {tip['J_kg_m2']:g} kg m^2"),
              "  excitation: " + _excitation_text(exc)]
     lines += [f"  sensor {s['name']}: {s['quantity']} at x = {s['location_m']:g} m, column {s['column']!r} ({s['unit']})"
-              for s in read["sensors"]]
+              + _stated_text(s) for s in read["sensors"]]
+    stated = [f"{label} +- {value:g} {unit}" for label, value, unit in (
+        ("length", beam.get("length_tolerance_m"), "m"), ("m_T", tip.get("m_T_tolerance_kg"), "kg"),
+        ("J", tip.get("J_tolerance_kg_m2"), "kg m^2")) if value]
+    if stated:
+        lines.append("  stated tolerances: " + ", ".join(stated))
     lines += [f"  sampling: {read['n_samples']} samples at {read['fs_hz']:.6g} Hz, {read['duration_s']:.4g} s", "found:"]
     lines += _force_lines(summary["force"])
     for c in summary["channels"]:
@@ -332,6 +341,13 @@ def report_lines(summary: dict) -> list[str]:
     lines.append(f"  suggested: --max-frequency {s['max_frequency_hz']:.4g} ({s['reason']}); "
                  f"window --start {s['start_s']:.4g} --stop {s['stop_s']:.4g} (until the response sinks into the noise)")
     return lines
+
+
+def _stated_text(sensor: dict) -> str:
+    """The sensor's stated mass and position tolerance, as a suffix of its line ('' when none)."""
+    mass, tolerance = sensor.get("mass_kg"), sensor.get("location_tolerance_m")
+    return ((f", own mass {mass:g} kg" if mass is not None else "")
+            + (f", position +- {tolerance:g} m" if tolerance else ""))
 
 
 def _excitation_text(exc: dict) -> str:

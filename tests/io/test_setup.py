@@ -126,3 +126,20 @@ def test_shipped_recordings_load_as_before(directory):
 def test_the_shipped_list_holds_the_examples_and_the_real_record():
     names = {p.name for p in SHIPPED}
     assert {"paper_q3_hammer", "alu_q1_release", "paper_rootcomp_hammer", "recording"} <= names
+
+
+def test_check_prints_the_stated_setup_and_refuses_a_bad_value(tmp_path, capsys):
+    """``bayesbeam check`` validates what a fit would: it shows the stated set-up and exits 2 with
+    the key's message where the fit's priors would refuse it."""
+    from bayesbeam.cli import main
+
+    assert main(["check", str(make(tmp_path)), "--out", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out
+    assert "own mass 0.006 kg, position +- 0.004 m" in printed
+    assert "stated tolerances: length +- 0.005 m, m_T +- 0.002 kg, J +- 1e-07 kg m^2" in printed
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "beam.toml").write_text(STATED.replace("mass = 0.006", "mass = -0.006", 1), encoding="utf-8")
+    (bad / "recording.csv").write_text(CSV, encoding="utf-8")
+    assert main(["check", str(bad), "--out", str(tmp_path / "out_bad")]) == 2
+    assert "[[sensor]] #1 .mass" in capsys.readouterr().err
