@@ -333,7 +333,9 @@ def load_recording(path: str | os.PathLike) -> Recording:
     ``[tip]`` may be omitted (no tip body), as may its keys (0.0). ``[recording]`` may be
     omitted, as may its keys: ``file`` defaults to "recording.csv", ``time_column`` to "time".
     Keys this reader does not use inside the format's own tables are ignored with a
-    warning (they are usually typos); other top-level tables go to ``Recording.extra``.
+    warning (they are usually typos); other top-level tables go to ``Recording.extra``. The
+    set-up keys (sensor masses, tolerances) go to ``Recording.setup_keys`` unchecked, and are
+    checked when ``Recording.setup`` is read.
 
     Raises RecordingError for anything the format refuses (see docs/format.md).
     """
