@@ -74,7 +74,7 @@ def test_hammer_example_in_band_residual_is_noise_plus_force_noise():
     C = s^2 P + f^2 B B^T, B the in-band responses to those samples (K = 44 unit-sample responses,
     scaled by the impact window). Then r^T C^+ r is chi-square with rank(P) = 6225 degrees of
     freedom: divided by them, 1 with sd sqrt(2 / 6225) = 0.018; 4 sd is the bound. The plain RMS
-    ratio is no use here: the force-noise part carries 88 % of the expected power with only ~10
+    ratio is no use here: the force-noise part carries 88 % of the expected power with only ~8
     effective degrees of freedom, so the mean square's sampling sd is 45 % of its mean (expected
     RMS 2.9 times the sensor noise's; this record's 1.8 is 1.3 sd low). The bound is tight enough to fail a coarser model (N = 48 lands 10 sd
     out, N = 32 365 sd) or the sensor noise alone (without the force-noise term: 131 sd).
