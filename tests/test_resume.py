@@ -40,11 +40,12 @@ def _bayesbeam(*args):
 
 
 def _saved_steps(path: Path) -> int:
-    """Steps in emcee's HDF5 backend (0 while the file is missing or being written)."""
+    """Steps in emcee's HDF5 backend (0 while the file is missing, or caught mid-write by this
+    unlocked read: h5py then raises one of these)."""
     try:
         with h5py.File(path, "r", locking=False) as f:
             return int(f["mcmc"].attrs["iteration"])
-    except (OSError, KeyError):
+    except (OSError, KeyError, ValueError, RuntimeError):
         return 0
 
 
