@@ -1,14 +1,13 @@
 """``bayesbeam check``: validate a recording and say what it holds before anything is fitted."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 from bayesbeam import __version__
 from bayesbeam.checks.survey import report_lines, survey
 from bayesbeam.cli.common import output_folder
 from bayesbeam.io import load_recording
-from bayesbeam.io.atomic import write_text
+from bayesbeam.io.provenance import write_json
 from bayesbeam.report.quicklook import save_quicklook
 
 HELP = ("validate a recording; print what it read (beam, tip body, excitation, sensors, sampling) and what "
@@ -32,7 +31,7 @@ def run(args) -> int:
     found = survey(rec)
     out.mkdir(parents=True, exist_ok=True)
     summary = {"bayesbeam": __version__, **found.summary}
-    json_path = write_text(out / "check.json", json.dumps(summary, indent=2) + "\n")
+    json_path = write_json(summary, out / "check.json")
     png_path = save_quicklook(rec, found, out / "quicklook.png")
     print("\n".join(report_lines(found.summary)))
     print(f"wrote {json_path}\nwrote {png_path}")
