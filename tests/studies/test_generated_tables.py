@@ -72,3 +72,15 @@ def test_block_equals_its_rendering_from_the_committed_json(markdown, name):
 def test_rendered_files_are_the_ones_checked():
     """A renderer writing into a file outside the checked set would escape the drift check."""
     assert set(RENDERED) <= {p.resolve() for p in MARKDOWN}
+
+
+@pytest.mark.parametrize("script", [s for s in RENDERERS if s.endswith("run.py") and "concealed" not in s])
+def test_the_commands_a_study_reruns_are_valid_command_lines(script):
+    """Each study's COMMANDS parse with the bayesbeam parser (nothing is run): a renamed or removed
+    flag fails here, not half-way through a rerun."""
+    from bayesbeam.cli import build_parser
+
+    parser = build_parser()
+    for name, arguments in _load(script).COMMANDS.items():
+        parsed = parser.parse_args(arguments)
+        assert parsed.command == arguments[0] and parsed.out, (script, name)
