@@ -4,10 +4,13 @@ It shares nothing with :mod:`bayesbeam.physics`, :mod:`bayesbeam.response` or :m
 (only :mod:`bayesbeam.io`, to write the format):
 
 * space: Hermite cubic Euler-Bernoulli finite elements (:mod:`.fem`), 60 by default, clamped root
-  or root spring, tip body, sensor mass, axial load, the paper's four damping mechanisms;
+  or root spring (with a root dashpot), tip body, sensor mass, axial load, the paper's four damping
+  mechanisms and the literature's three (fractional, exponential relaxation, Zener's solid);
 * time: exact exponential stepping of the first-order system under a piecewise-cubic (Hermite)
   force on a fine grid (:mod:`.integrate`); time hysteresis as a sum of exponentials that is exact
-  in the limit, in the undamped modes (:mod:`.memory`, :mod:`.system`);
+  in the limit, in the undamped modes (:mod:`.memory`, :mod:`.system`); the literature's
+  mechanisms as internal variables of the bending moment, fractional damping through a quadrature
+  of s^nu over relaxation rates (:mod:`.relaxation`, :mod:`.augmented`);
 * acquisition: a continuous hammer pulse or a release, a zero-phase anti-alias FIR and decimation
   (:mod:`.daq`), a delay of the response channels, seeded sensor and force noise (:mod:`.record`).
 

@@ -259,3 +259,25 @@ def test_record_writes_the_material_table_and_names_the_literature_mechanisms(tm
 def test_case_refuses_incomplete_literature_parameters(damping, effects, needle):
     with pytest.raises(ValueError, match=needle):
         case_of(PAPER, damping=damping, effects=effects)
+
+
+# --------------------------------------------------------------------------- sanity
+@pytest.mark.parametrize("model, damping, effects, params", [
+    ("fractional", FRACTIONAL, {}, FRACTIONAL),
+    ("exponential", EXPONENTIAL, {}, EXPONENTIAL),
+    ("air+root_compliance+root_damping", {"gamma": 0.3}, {"k_theta": 4428.0, "c_theta": 0.5},
+     {"gamma": 0.3, "k_theta": 4428.0, "c_theta": 0.5}),
+])
+def test_sanity_against_bayesbeam_simulate(model, damping, effects, params):
+    """A SANITY check, not a definition of truth: bayesbeam's model (N = 48) on the reference's clean
+    hammer test of the paper beam (1 s at 1024 Hz, 80 elements, a 2 ms pulse) agrees to 1.5e-4,
+    1.3e-4 and 2.8e-4 of the RMS (measured; q1 at N = 64 agrees to 8e-5, test_reference.py). Bound
+    1e-3: the two discretisations' phase drift at N = 48; 1 % more c_f, c_e or c_theta moves the
+    reference's own response by 7e-3, 8e-3 and 2.7e-3 of the RMS (measured), so a mechanism wrong
+    by that much fails."""
+    from bayesbeam.model import BeamModel
+
+    rec = record(PAPER, damping, effects=effects, excitation=Hammer(0.75, width=2e-3, t0=0.02), fs=1024.0,
+                 duration=1.0, numerics=Numerics(n_elements=80))
+    theirs = BeamModel.from_recording(rec, model, 48).simulate({"EI": PAPER.nominal_EI, **params})
+    assert np.sqrt(np.mean((theirs - rec.signals) ** 2)) < 1e-3 * np.sqrt(np.mean(rec.signals**2))
