@@ -11,6 +11,7 @@ from bayesbeam.cli.common import (
 )
 from bayesbeam.cli.compare import add_evidence_options, comparison_config
 from bayesbeam.io import load_recording
+from bayesbeam.report.diagnosis import lead
 
 HELP = "locate where the best damping model misses a recording, name and add the missing physics"
 
@@ -65,6 +66,8 @@ def run(args) -> int:
     print(f"final {summary['final']['model']}: log Z {summary['final']['log_evidence']:.1f}, "
           f"RMS standardized residual {summary['final']['rms_standardized_residual']:.2f}")
     print()
-    print(summary["summary"])
+    print(" ".join(lead(summary)))
+    print()
+    print("In detail: " + summary["summary"])
     print(f"wrote {', '.join(p.name for p in paths[-2:])} and posteriors/ in {out}")
     return 0

@@ -5,6 +5,7 @@ import pytest
 
 from bayesbeam.cli import main
 from bayesbeam.io import write_recording
+from bayesbeam.report.diagnosis import lead
 from tests.diagnosis_cases import recording
 
 CHEAP = ["--model", "q1", "--n-intervals", "6", "--repeats", "2", "--replicates", "10", "--map-replicates", "20",
@@ -31,6 +32,8 @@ def test_diagnose_writes_json_report_and_posteriors(null, tmp_path, capsys):
     assert "cdI" in az.from_netcdf(out / "posteriors" / "q1.nc").posterior
     printed = capsys.readouterr().out
     assert "added: nothing" in printed and "no effect was added" in printed
+    # the plain sentences lead, the detailed paragraph follows
+    assert printed.index(lead(summary)[0]) < printed.index("In detail: ")
 
 
 @pytest.mark.parametrize("argv, message", [
