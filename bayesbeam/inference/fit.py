@@ -28,7 +28,7 @@ from bayesbeam.response.linear import PASSBAND
 from bayesbeam.response.signals import EDGE, decimate, force_noise
 
 #: refinement ladders for the automatic choice of N, per spline degree; the quintic's rungs reach
-#: the cubic's in-band response accuracy with about a third of the intervals (benchmarks/basis.py)
+#: the cubic's in-band response accuracy with a third to a fifth of the intervals (benchmarks/basis.py)
 N_LADDERS = {3: (16, 24, 32, 48, 64), 5: (8, 12, 16, 24, 32)}
 #: refining N must move every parameter's optimum by less than this many posterior sd
 SHIFT_TOLERANCE = 0.1
