@@ -15,6 +15,8 @@ from __future__ import annotations
 from dataclasses import replace
 from functools import cache
 
+import numpy as np
+
 from bayesbeam.io import Beam, Sensor
 from tests.inference import cases
 from tests.reference import Hammer, Noise, Release, record
@@ -63,6 +65,25 @@ def hammer(model: str, beam_name: str = "paper", seed: int = 1, effect: str | No
                  fs=s["fs"], duration=1.0, effects=effects, sensors=sensors, noise=NOISE, seed=seed,
                  name=f"{beam_name}_{model}" + (f"_{effect}" if effect else ""))
     return rec, {"EI": beam.nominal_EI, **damping, **(effects or {})}
+
+
+def clean_hammer(model: str, beam_name: str = "paper", changes: dict | None = None, excitation=None,
+                 duration: float = 1.0):
+    """:func:`hammer`'s test without noise (Recording): at the truth, with ``changes`` (EI and
+    damping by name) made to it, or struck by another ``excitation`` for ``duration`` s."""
+    s = _setting(beam_name)
+    params = {"EI": s["beam"].nominal_EI, **DAMPING[beam_name][model], **(changes or {})}
+    EI = params.pop("EI")
+    return record(_nominal(s["beam"]), params, EI=EI, tip=s["tip"], excitation=excitation or s["excitation"],
+                  fs=s["fs"], duration=duration)
+
+
+def true_noise_sd(model: str, beam_name: str = "paper") -> tuple[float, float]:
+    """(sensor noise sd in m/s^2, force noise sd in N) of :func:`hammer`'s tip accelerometer and
+    force channel: the rule of :data:`NOISE` applied to the clean signals, as ``record`` applies it."""
+    clean = clean_hammer(model, beam_name)
+    return (NOISE.sensor * float(np.sqrt(np.mean(clean.signals[:, 0] ** 2))),
+            NOISE.force * float(np.max(np.abs(clean.force))))
 
 
 @cache
