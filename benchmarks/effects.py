@@ -246,8 +246,9 @@ def print_poles(rec) -> None:
     print()
 
 
-#: table 1c: the real record with the window, band and q2 medians of studies/real_steel_cantilever,
-#: the effects at the values its diagnoses fitted (k_theta, P) or a typical accelerometer (m_s)
+#: table 1c: the real record with the window and band of studies/real_steel_cantilever and q2's medians
+#: from the paper's five models compared there, the effects at the values its diagnoses fitted (k_theta,
+#: P) or a typical accelerometer (m_s)
 REAL = os.path.join(c.ROOT, "data", "real", "ds4-cantilever-freedecay", "recording")
 REAL_FIT = {"start": 1.12, "stop": 5.12, "max_frequency": 150.0}
 REAL_Q2 = {"EI": 98.76, "alpha": 48.1, "beta": 873.0}
