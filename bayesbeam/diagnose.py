@@ -18,9 +18,10 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
      extra parameter's Occam penalty, already inside the evidence, is beaten by a clear margin
      and a handful of null recordings cannot produce one by chance) by more than three standard
      errors of the estimate, **and**
-   * the mismatch map improves: the RMS standardized residual falls and the number of flags
-     (significant spectrogram cells, per-mode flags, a delay) does not grow. Evidence alone could
-     prefer a model that is better on average but wrong where it matters.
+   * the mismatch map improves: neither the RMS standardized residual nor the number of flags
+     (significant spectrogram cells, per-mode flags, a delay) gets worse, and one of them gets
+     better (:func:`improved`). Evidence alone could prefer a model that is better on average but
+     wrong where it matters.
 
    Of several candidates that pass, the one with the largest log Bayes factor is added.
 5. **Repeat once** (``rounds = 2``) from the augmented model for a second effect.
@@ -346,8 +347,22 @@ def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False) -
     """
     supported = [c for c in ranking.candidates if c.supported]
     chosen = supported[:n] or (list(ranking.candidates) if free_decay else ranking.candidates[:1])
-    shapes = amplitude_dependence(mismatch)
+    shapes = amplitude_dependence(mismatch) | input_shift(mismatch)
     return chosen + [c for c in ranking.candidates if c.effect in shapes and c not in chosen]
+
+
+def input_shift(mismatch: Mismatch) -> set[str]:
+    """A measurement delay when the force-noise latent terms carry more than the force channel's
+    measured noise allows (:func:`bayesbeam.checks.discrepancy.latent_force`).
+
+    Those terms let the fitted force move within its noise; a delay between the force and the
+    response channels is, for a linear beam, the same as a shifted force, so they absorb it: on
+    the reference simulator's paper beam a 0.5 ms delay left the q1 map with no flagged cell and
+    no delay (the prediction includes the latent force), only latent samples of up to 6 sigma
+    (chi2 264 on 50 samples, p = 8e-31). The signature screen, whose features are measured
+    against that prediction, cannot see it.
+    """
+    return {"measurement_delay"} if (mismatch.phase.get("force") or {}).get("significant") else set()
 
 
 def amplitude_dependence(mismatch: Mismatch) -> set[str]:
@@ -397,15 +412,29 @@ def beam_regions(mismatch: Mismatch) -> list[dict]:
 
 
 def flags(mismatch: Mismatch) -> int:
-    """Significant spectrogram cells + per-mode flags + a significant delay."""
+    """Significant spectrogram cells + per-mode flags + a significant delay + a latent force
+    beyond the force channel's noise."""
     return (int(mismatch.spectrogram.significant.sum()) + sum(len(m["flags"]) for m in mismatch.modes)
-            + int(bool(mismatch.phase.get("significant"))))
+            + int(bool(mismatch.phase.get("significant"))) + int(bool(input_shift(mismatch))))
+
+
+#: RMS standardized residuals closer than this (relative) are equal: a map with no flagged cell
+#: takes its noise floor from all cells, so its RMS is 1 up to rounding (1 - 1e-16 against 1.0)
+RMS_EQUAL = 1e-9
 
 
 def improved(before: Mismatch, after: Mismatch) -> bool:
-    """The map improves: RMS standardized residual falls and the flags do not grow."""
-    return (after.rms_standardized_residual < before.rms_standardized_residual
-            and flags(after) <= flags(before))
+    """The map improves: neither the RMS standardized residual nor the flags get worse, and at
+    least one gets better.
+
+    Fewer flags at an equal RMS count: per-mode flags leave the spectrogram's cells unflagged, and
+    with no flagged cell both maps' RMS is 1 by construction (the floor is the mean over all
+    cells), so only the flags can tell the maps apart.
+    """
+    rms_before, rms_after = before.rms_standardized_residual, after.rms_standardized_residual
+    equal = abs(rms_after - rms_before) <= RMS_EQUAL * rms_before
+    return (flags(after) <= flags(before) and (equal or rms_after < rms_before)
+            and (flags(after) < flags(before) or not equal))
 
 
 # ---------------------------------------------------------------------------- diagnosis.json
@@ -432,7 +461,7 @@ def summarise(d: Diagnosis) -> dict:
                       "candidates": [c.to_dict() for c in r.candidates]} for i, r in enumerate(d.rankings)],
         "maps": {"baseline": d.baseline_mismatch.to_dict(), "final": d.final_mismatch.to_dict()},
         "decision_rule": {"log_bayes_factor_above": DECISIVE, "by_standard_errors": DECISIVE_SD,
-                          "map_must_improve": "RMS standardized residual falls and flags do not grow",
+                          "map_must_improve": "neither the RMS standardized residual nor the flags get worse, one gets better",
                           "alpha": ALPHA, "unexplained_needs_misfit_share": PRACTICAL_SHARE},
         "baseline_comparison": None if d.comparison is None else _evidence_table(d.comparison),
         "not_fitted": [{"round": n.round, "model": n.model, "reason": n.reason} for n in d.not_fitted],

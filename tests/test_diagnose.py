@@ -1,8 +1,10 @@
-"""The diagnosis (locate, name, model, show) on concealed effects, a null recording and a residual
-no catalogue effect can explain.
+"""The diagnosis's rules (candidates, decisions, the damping re-check), a free decay, a residual no
+catalogue effect can explain, and diagnosis.json's layout.
 
-Cheap cases of tests/diagnosis_cases.py: paper beam, 1 s at 512 Hz, q1 damping, N = 6, 2 % noise,
-diagnosed blind against q1 (2 SMC repeats, 20 map replicates).
+Naming concealed effects and leaving null recordings alone are tested on recordings the model did
+not make: tests/acceptance/test_diagnose.py. The cheap cases of tests/diagnosis_cases.py (paper
+beam, 1 s at 512 Hz, q1 damping, N = 6, 2 % noise, diagnosed blind against q1 with 2 SMC repeats
+and 20 map replicates) serve the layout and the free decay.
 """
 import json
 from types import SimpleNamespace
@@ -11,29 +13,12 @@ import numpy as np
 import pytest
 
 from bayesbeam.diagnose import DECISIVE, diagnose, flags, improved
-from tests.diagnosis_cases import CONCEALED, CONFIG, diagnosed, recording
+from tests.diagnosis_cases import CONFIG, diagnosed, recording
 
 #: the map's RMS standardized residual of a right model is 1 up to its own scatter: it averages
 #: ~500 band coordinates (sd of the mean square ~ sqrt(2/500) = 0.06) over a floor estimated
 #: from the same cells; 0.1 is 1.6 sd
 RMS_TOLERANCE = 0.1
-
-
-@pytest.mark.parametrize("effect", sorted(CONCEALED))
-def test_a_concealed_effect_is_named_added_and_its_truth_covered(effect):
-    d = diagnosed(effect)
-    (name, truth), = CONCEALED[effect].items()
-    assert d.added == [effect] and not d.unexplained
-    trial = next(t for t in d.trials if t.added)
-    assert trial.log_bayes_factor - 3 * trial.log_bayes_factor_sd > DECISIVE
-    summary = d.to_dict()
-    estimate = summary["candidates"][d.trials.index(trial)]["parameters"][name]
-    assert estimate["q05"] <= truth <= estimate["q95"], (estimate, truth)
-    # the baseline misses the recording; the augmented model does not
-    assert d.baseline_mismatch.rms_standardized_residual > 1 + RMS_TOLERANCE
-    assert abs(d.final_mismatch.rms_standardized_residual - 1) < RMS_TOLERANCE
-    assert flags(d.baseline_mismatch) > 0 and flags(d.final_mismatch) == 0
-    assert summary["final"]["model"] == f"q1+{effect}" and summary["final"]["log_evidence"] > summary["baseline"]["log_evidence"]
 
 
 def test_a_free_decay_is_diagnosed_without_an_excitation_time():
@@ -55,13 +40,6 @@ def test_a_free_decay_is_diagnosed_without_an_excitation_time():
     assert estimate["q05"] <= truth <= estimate["q95"], estimate
     assert d.baseline_mismatch.rms_standardized_residual > 1 + RMS_TOLERANCE
     assert abs(d.final_mismatch.rms_standardized_residual - 1) < RMS_TOLERANCE
-
-
-def test_nothing_is_fitted_or_added_on_a_null_recording():
-    d = diagnosed(None)
-    assert d.added == [] and d.trials == [] and not d.unexplained
-    assert abs(d.baseline_mismatch.rms_standardized_residual - 1) < RMS_TOLERANCE
-    assert "no effect was added" in d.to_dict()["summary"]
 
 
 def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
@@ -92,19 +70,26 @@ def test_diagnosis_json_has_the_issue_layout():
     assert summary["final"]["parameters"]["k_theta"] == candidate["parameters"]["k_theta"]
 
 
-def _map(rms, cells=0, mode_flags=(), delay=False):
+def _map(rms, cells=0, mode_flags=(), delay=False, latent_force=False):
     spectrogram = SimpleNamespace(significant=np.array([True] * cells + [False]))
     return SimpleNamespace(rms_standardized_residual=rms, spectrogram=spectrogram,
-                           modes=[{"flags": list(mode_flags)}], phase={"significant": delay})
+                           modes=[{"flags": list(mode_flags)}],
+                           phase={"significant": delay, "force": {"significant": latent_force}})
 
 
-def test_the_map_improves_only_if_the_residual_falls_and_flags_do_not_grow():
+def test_the_map_improves_only_if_neither_residual_nor_flags_get_worse_and_one_gets_better():
     before = _map(1.3, cells=4, mode_flags=["frequency"])
-    assert flags(before) == 5
+    assert flags(before) == 5 and flags(_map(1.0, delay=True, latent_force=True)) == 2
     assert improved(before, _map(1.0))
-    assert not improved(before, _map(1.3))                       # residual did not fall
-    assert not improved(before, _map(1.1, cells=6))              # fewer misfit overall, more flags
+    assert not improved(before, _map(1.1, cells=6))              # less misfit overall, more flags
     assert not improved(before, _map(1.1, cells=4, mode_flags=["frequency"], delay=True))
+    assert not improved(before, _map(1.35, cells=2))             # fewer flags, more misfit
+    assert not improved(before, _map(1.3, cells=4, mode_flags=["frequency"]))   # nothing better
+    # the reference root spring's case: only per-mode flags, so no flagged cell and both maps'
+    # RMS is 1 by construction (the floor is the mean of all cells), up to rounding
+    per_mode = _map(1.0, mode_flags=["frequency", "amplitude", "frequency", "phase"])
+    assert improved(per_mode, _map(1.0 - 1e-16)) and improved(per_mode, _map(1.0 + 1e-16))
+    assert not improved(_map(1.0), _map(1.0 - 1e-16))            # rounding is not an improvement
 
 
 def _mode(curvature_error, p):
@@ -120,12 +105,28 @@ def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
     ranking = SimpleNamespace(candidates=[cand("axial_load", True), cand("sensor_mass", True),
                                           cand("root_compliance", True), cand("quadratic_drag", False),
                                           cand("dry_friction", False)])
-    rises = SimpleNamespace(modes=[_mode(-0.05, 1e-6), _mode(0.01, 0.5)])
-    plain = SimpleNamespace(modes=[_mode(0.01, 0.3), _mode(-0.01, 0.6)])
+    rises = SimpleNamespace(phase={}, modes=[_mode(-0.05, 1e-6), _mode(0.01, 0.5)])
+    plain = SimpleNamespace(phase={}, modes=[_mode(0.01, 0.3), _mode(-0.01, 0.6)])
     assert [c.effect for c in _candidates(ranking, plain, 2)] == ["axial_load", "sensor_mass"]
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["axial_load", "sensor_mass", "dry_friction"]
     ranking.candidates = [cand("quadratic_drag", False), cand("dry_friction", False)]
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["quadratic_drag", "dry_friction"]
+
+
+def test_a_latent_force_beyond_the_force_noise_puts_a_delay_among_the_fitted_candidates():
+    """A delay is absorbed by the force-noise latent terms (a shifted force), where the signature
+    screen cannot see it: the latent force's flag adds measurement_delay to what is fitted."""
+    from bayesbeam.diagnose import _candidates
+
+    def cand(effect, supported):
+        return SimpleNamespace(effect=effect, supported=supported)
+
+    ranking = SimpleNamespace(candidates=[cand(e, False) for e in ("sensor_mass", "axial_load", "measurement_delay")])
+    flagged = SimpleNamespace(modes=[_mode(0.01, 0.3)], phase={"force": {"significant": True}})
+    clean = SimpleNamespace(modes=[_mode(0.01, 0.3)], phase={"force": {"significant": False}})
+    assert [c.effect for c in _candidates(ranking, flagged, 2)] == ["sensor_mass", "measurement_delay"]
+    assert [c.effect for c in _candidates(ranking, clean, 2)] == ["sensor_mass"]
+    assert [c.effect for c in _candidates(ranking, SimpleNamespace(modes=[], phase={}), 2)] == ["sensor_mass"]
 
 
 def test_on_a_free_decay_with_no_candidate_supported_every_ranked_one_is_fitted():
@@ -137,7 +138,7 @@ def test_on_a_free_decay_with_no_candidate_supported_every_ranked_one_is_fitted(
     def cand(effect, supported):
         return SimpleNamespace(effect=effect, supported=supported)
 
-    plain = SimpleNamespace(modes=[_mode(0.01, 0.3)])
+    plain = SimpleNamespace(phase={}, modes=[_mode(0.01, 0.3)])
     names = ["root_compliance", "sensor_mass", "axial_load", "measurement_delay"]
     ranking = SimpleNamespace(candidates=[cand(e, False) for e in names])
     assert [c.effect for c in _candidates(ranking, plain, 2)] == ["root_compliance"]

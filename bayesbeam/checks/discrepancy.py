@@ -82,6 +82,13 @@ after a coarse search over :math:`|\tau| \le` :data:`MAX_DELAY` that maximises
 \omega_m\hat\tau)^2/s_m^2` says whether the phase error is a pure delay. A free decay has no
 excitation time (its modal phases are fitted): no delay there.
 
+*The latent force.* When the likelihood marginalises the force channel's noise, the prediction
+includes the latent force's posterior mean :math:`c`, and a delay between the force and the
+response channels (for a linear beam, a shifted force) is absorbed by it, out of sight of
+everything above. :func:`latent_force` tests :math:`\chi^2 = \sum_j c_j^2/s_j^2` (:math:`s_j^2`
+the samples' noise variance) against :math:`\chi^2_J` at ALPHA / 3: conservative, since the
+posterior mean varies less than the prior. A significant latent force is a flag and a region.
+
 (e) Practical significance
 --------------------------
 A statistically significant region need not matter: at a displacement channel's signal-to-noise
@@ -95,7 +102,9 @@ amplitude ratio,
           \Big/ \Big(\sum_{j \in R} \hat z_j^2 + |R|\,\sigma_c^2\Big)}.
 
 It is measured against the region's own signal, not the channel's, so that a weak mode's misfit
-is judged by that mode. A region is ``practically_significant`` when :math:`s \ge`
+is judged by that mode (the latent force's region: the share of the prediction that force
+carries in excess of its noise, that share times :math:`\sqrt{1 - J/\chi^2}`). A region is
+``practically_significant`` when :math:`s \ge`
 :data:`PRACTICAL_SHARE` (1 %): a cantilever's clamp, geometry and sensor calibration are rarely
 known better than that, and the forward model's own in-band error at the grids the discretisation
 check accepts is of the same order, so a smaller misfit is no evidence of missing physics. Only
@@ -105,7 +114,8 @@ flags alone still decide whether effects are tried.
 False alarms
 ------------
 :data:`ALPHA` is split equally over the three families (cells; per-mode tests; the delay), so the
-map flags something on a recording the model explains with probability about ALPHA.
+map flags something on a recording the model explains with probability about ALPHA; the latent
+force's test, also at ALPHA / 3, is conservative and adds less.
 
 (d) Regions
 -----------
@@ -126,6 +136,7 @@ from scipy import ndimage, signal, stats
 
 from bayesbeam.checks.envelope import SETTLE, band_edges, mode_estimates
 from bayesbeam.checks.ppc import decay_start, era_modes, modes_in_band
+from bayesbeam.inference.likelihood import _marginal
 
 #: family-wise false-alarm level of the whole map, split over cells, per-mode tests and the delay
 ALPHA = 0.01
@@ -216,7 +227,8 @@ class Mismatch:
 
     def to_dict(self) -> dict:
         """JSON-ready summary (the spectrogram and per-bin phase are left to the report's figures)."""
-        phase = {k: self.phase[k] for k in ("delay_s", "delay_sd_s", "significant", "linear_p_value", "n_modes")}
+        phase = {k: self.phase.get(k) for k in ("delay_s", "delay_sd_s", "significant", "linear_p_value", "n_modes",
+                                                 "force")}
         return {"rms_standardized_residual": self.rms_standardized_residual, "noise": self.noise,
                 "mismatch": self.regions, "modes": self.modes, "phase": phase, "notes": self.notes,
                 "features": {k: [_num(o), _num(s)] for k, (o, s) in self.features.as_dict().items()},
@@ -241,7 +253,8 @@ def locate(posterior, draws: np.ndarray, rng: np.random.Generator, n_replicates:
     noise = {c: {"floor_sd": float(s), "fitted_sd": float(f), "inflation": float(f / s)}
              for c, s, f in zip(lik.channels, sigma, np.sqrt(np.mean(var, axis=(0, 1))))}
     phase = {**phase_spectrum(lik.z_data, lik.projection.project(setting.reference), lik.projection, sigma),
-             **delay_fit(err["phase"][0], err["phase"][1], setting.f_model)}
+             **delay_fit(err["phase"][0], err["phase"][1], setting.f_model),
+             "force": latent_force(lik, *posterior.split(centre))}
     out = Mismatch(lik.channels, spec, noise, float(np.sqrt(np.mean(u / kappa))),
                    _mode_rows(lik, params, setting, obs, err, len(reps)), phase, _features(err, rep, lik.channels),
                    setting)
@@ -578,6 +591,26 @@ def delay_fit(error: np.ndarray, sd: np.ndarray, f_model) -> dict:
             "significant": bool(2 * stats.norm.sf(abs(tau) / tau_sd) < ALPHA / 3)}
 
 
+def latent_force(lik, params: dict, noise: dict) -> dict:
+    """Does the measured force drive the response as the model has it? (docstring (c), the latent
+    force). Empty for a likelihood without force-noise latent terms."""
+    if getattr(lik, "force_noise", None) is None or lik.free_decay:
+        return {}
+    _, _, z, psi, s2 = lik._latent(params)
+    coef = _marginal(z, psi, s2, lik.variance(noise))[1]
+    chi2 = float(np.sum(coef**2 / s2))
+    slope = np.gradient(lik.model.force, lik.model.recording.dt)[lik.force_noise.index]
+    z_ref = lik.projection.project(lik.predict(params, noise))
+    # the share of the prediction the latent force carries beyond what its noise would (the
+    # excess fraction of chi2): noise alone carries a few percent, none of it in excess
+    carried = np.sqrt(np.sum((psi @ coef) ** 2, axis=0) / np.maximum(np.sum(z_ref**2, axis=0), 1e-300))
+    carried *= np.sqrt(max(1.0 - coef.size / chi2, 0.0)) if chi2 > 0 else 0.0
+    return {"chi2": chi2, "dof": int(coef.size), "p_value": float(stats.chi2.sf(chi2, coef.size)),
+            "significant": bool(stats.chi2.sf(chi2, coef.size) < ALPHA / 3),
+            "delay_s": float(-np.dot(coef, slope) / np.dot(slope, slope)) if np.any(slope) else None,
+            "share": float(np.max(carried))}
+
+
 # ---------------------------------------------------------------------------- (d) regions
 def _all_regions(mis: Mismatch, lik, params) -> list[dict]:
     """Flagged cells, then modes with a flagged statistic no cell covers, then the delay."""
@@ -587,6 +620,8 @@ def _all_regions(mis: Mismatch, lik, params) -> list[dict]:
     energy = _cell_energies(lik, mis.setting)
     for r in regions:
         r["misfit_share"] = misfit_share(r, energy, mis.spectrogram, lik.channels)
+    regions += _force_region(mis.phase, rec, proj)
+    for r in regions:
         r["practically_significant"] = r["misfit_share"] >= PRACTICAL_SHARE
     return regions
 
@@ -714,6 +749,24 @@ def _delay_region(phase, rec, proj) -> list[dict]:
     return [{"band_hz": [float(f.min()), float(f.max())],
              "time_s": [float(rec.time[proj.i0]), float(rec.time[proj.i1 - 1])], "sensor": "all", "note": note,
              "peak_hz": None, "peak_standardized_power": None, "mode": None, "beam_physics": True}]
+
+
+def _force_region(phase, rec, proj) -> list[dict]:
+    """A region when the latent force carries more than the force channel's noise allows; its
+    misfit share is the share of the prediction that latent force carries (docstring (e))."""
+    force = phase.get("force") or {}
+    if not force.get("significant"):
+        return []
+    shift = "" if force["delay_s"] is None else \
+        f"; read as a shift of the measured force, the response lags it by {force['delay_s'] * 1e3:.3g} ms"
+    f = phase["mode_frequency_hz"]
+    note = (f"the force-noise latent terms carry {force['chi2'] / force['dof']:.3g} x the variance the force "
+            f"channel's measured noise allows (chi2 {force['chi2']:.4g} on {force['dof']} samples): the response "
+            f"is not driven by the measured force as modelled{shift}")
+    return [{"band_hz": [float(f.min()), float(f.max())] if f.size else [0.0, float(proj.max_frequency)],
+             "time_s": [float(rec.time[proj.i0]), float(rec.time[proj.i1 - 1])], "sensor": "all", "note": note,
+             "peak_hz": None, "peak_standardized_power": None, "mode": None, "beam_physics": True,
+             "misfit_share": force["share"]}]
 
 
 # ---------------------------------------------------------------------------- notes
