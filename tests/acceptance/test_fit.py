@@ -5,8 +5,8 @@ Recordings (cases.py): the independent reference simulator's hammer tests of the
 (q1, q2, q3 damping; 1 s at 512 Hz, 2 % sensor noise, force noise 0.5 % of the peak), beam.toml's
 modulus 7 % above the truth. Each is fitted by ``bayesbeam.inference.fit`` as ``bayesbeam fit``
 does, with N chosen automatically (FitConfig(n_intervals=None)); the package's own refinement
-check must accept that N. The chains are shortened to 600 steps (16-20 walkers; 6-17 tau after a
-burn-in of 3 tau; the fit's own rule would run to 50 tau): enough for each sd to about 10 %.
+check must accept that N. The chains are shortened to 600 steps (16-20 walkers; 9-19 tau after a
+burn-in of 3 tau; the fit's own rule would run to 50 tau): enough for each sd to 5-10 %.
 The aluminium strip is left out: at 1024 Hz it doubles the samples and the discretisation, and
 the suite's budget holds one beam.
 
@@ -27,23 +27,25 @@ the suite's budget holds one beam.
    max_frequency in each block; an orthogonal projection, so inner products equal those of the
    likelihood's coordinates), and the noise at its true level. The fit marginalises the noise of
    the force samples its impact window keeps (errors in variables), and that noise drives a response
-   the data cannot tell from the beam's: with 0.5 % force noise it is a third of the 4 ms pulse's
-   content at mode 3, which carries most of the information on EI. So the prediction is
-   F = J^T C^-1 J with C = sigma^2 I + sigma_f^2 Psi W^2 Psi^T: sigma and sigma_f the true noise sds
-   (the Noise rule on the clean signals), Psi the reference's responses to a unit force sample at
-   each sample the fit's window keeps (a 0.2 ms Gaussian pulse of area 1/fs, flat to 3 % in the
-   band, shifted sample by sample), W the window (read from the fit, like its band). Without the
-   force term the prediction is about half the measured sd for EI (printed as "sensor only").
+   the data cannot tell from the beam's: its spectrum is flat while the 4 ms pulse's falls off (at
+   mode 4, 127 Hz, to 0.6 % of its low-frequency level, about the size of the kept noise), so the
+   higher modes' response is uncertain, and they carry much of the information on EI. So the
+   prediction is F = J^T C^-1 J with C = sigma^2 I + sigma_f^2 Psi W^2 Psi^T: sigma and sigma_f
+   the true noise sds (the Noise rule on the clean signals), Psi the reference's responses to a
+   unit force sample at each sample the fit's window keeps (a 0.2 ms Gaussian pulse of area 1/fs,
+   flat to 3 % in the band, shifted sample by sample), W the window (read from the fit, like its
+   band). Without the force term the prediction is about half the measured sd for EI (printed as
+   "sensor only").
 
    Why a factor of 2. The sd a correct likelihood gives differs from the prediction by (a) the
    realised noise level, which scales the sd (sd of sigma's estimate 1/sqrt(2 x 390 coordinates)
-   = 3.6 %, so +-11 % at 3 sd), (b) Monte Carlo error of a chain of 6-17 tau (~10 %), (c) the
+   = 3.6 %, so +-11 % at 3 sd), (b) Monte Carlo error of a chain of 9-19 tau (5-10 %), (c) the
    posterior's departure from a Gaussian at the truth's curvature (measured: q1 and q2 0.87-1.00 x
    the prediction, q3's EI and gamma 1.12 and 0.87 x). A factor 2 holds these with room; it
    rejects a likelihood that ignores the data (the sd then stays at the prior's, decades wide), a
-   residual weighted wrongly (a misfit from a misplaced band or a force scaled by a few per cent
-   inflates the noise estimate and every sd with it: 2.7 x for a 5 % force error at 2 % noise), or
-   an over-confident posterior (sd below half of what the data can give).
+   noise level or a residual weighted wrongly by more than a factor 2 in sd, and an over-confident
+   posterior (sd below half of what the data can give). A biased likelihood whose width is right
+   (a force scaled by a few per cent, absorbed by the damping) is the coverage test's to catch.
 
    q3's a and b lie on a thin curved ridge (correlation -0.995; spatial hysteresis acts like
    Kelvin-Voigt with cdI = a b^2 / 2 for small b): along the ridge's bend the posterior is several
