@@ -39,6 +39,9 @@ COMMANDS = {
                     *BAND, "--n-intervals", "24", "--overwrite", "--out", f"{OUT}/compare_n24"],
     "diagnose": ["diagnose", RECORDING, "--model", BEST, "--effect", "sensor_mass", *WINDOW,
                  "--overwrite", "--out", f"{OUT}/diagnose"],
+    # the clamp's losses beside the best mechanism and beside q1, which the diagnosis cannot rank alone
+    "compare_clamp": ["compare", RECORDING, "--models", f"{BEST},q1", "--effect", "sensor_mass", "--effect",
+                      "root_compliance", "--effect", "root_damping", *WINDOW, "--overwrite", "--out", f"{OUT}/compare_clamp"],
     # the record without the stated set-up: the effects free of it
     "diagnose_blind": ["diagnose", DATA_RECORDING, *WINDOW, "--overwrite", "--out", f"{OUT}/diagnose_blind"],
     "diagnose_q1": ["diagnose", DATA_RECORDING, "--model", "q1", *WINDOW, "--executor", "serial",
@@ -132,6 +135,7 @@ def blocks() -> dict[Path, dict[str, str]]:
         "real-steel-checks": checks_table(summary),
         "real-steel-sensor-mass": sensor_mass_table(summary),
         "real-steel-diagnose": diagnosis_table(diagnosis),
+        "real-steel-compare_clamp": ranking_markdown(json.loads((HERE / "compare_clamp" / "comparison.json").read_text())),
         "real-steel-compare_structure": ranking_markdown(json.loads((HERE / "compare_structure" / "comparison.json")
                                                                     .read_text())),
     }}
