@@ -263,11 +263,21 @@ def unsettled_evidence(model: dict) -> str | None:
     return ", ".join(reasons) or None
 
 
+def described(model_summary) -> str:
+    """A model's parts in words, 'air + strain_rate with sensor_mass'; a model of effects alone is
+    named by its effects."""
+    text = " + ".join(model_summary["mechanisms"])
+    effects = ", ".join(model_summary["effects"])
+    if not text:
+        return effects
+    return text + (" with " + effects if effects else "")
+
+
 def verdict(ranking, models) -> str:
     """A plain-language paragraph: which model, how sure, and whether it fits."""
     best = ranking[0]
     b = models[best]
-    mech = " + ".join(b["mechanisms"]) + ("" if not b["effects"] else " with " + ", ".join(b["effects"]))
+    mech = described(b)
     text = [(f"The data favour {best} ({mech}): posterior probability {b['probability']:.3f} among the "
              f"{len(ranking)} models compared (equal prior probabilities).")]
     if len(ranking) > 1:

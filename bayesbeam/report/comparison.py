@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, SPECTRUM_BANDS
-from bayesbeam.compare import strength
+from bayesbeam.compare import described, strength
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
 from bayesbeam.report.markdown import markdown_table, median_and_interval
@@ -127,7 +127,7 @@ def _evidence_table(summary) -> str:
         s = models[m]
         lbf = s["log_bayes_factor_vs_best"]
         sd = np.hypot(s["log_evidence_sd"], models[best]["log_evidence_sd"])
-        rows.append([esc(m), esc(_mechanisms(s)), f"{s['log_evidence']:.2f} &plusmn; {s['log_evidence_sd']:.2f}",
+        rows.append([esc(m), esc(described(s)), f"{s['log_evidence']:.2f} &plusmn; {s['log_evidence_sd']:.2f}",
                      "&mdash;" if m == best else f"{lbf:.2f} &plusmn; {sd:.2f}", _probability(s["probability"]),
                      "best" if m == best else esc(strength(-lbf))])
     head = ["model", "mechanisms", "log Z [nats]", "log Bayes factor vs best", "probability",
@@ -436,15 +436,12 @@ def _probability(p) -> str:
 
 def _title(name, model_summary) -> str:
     """A model's name, with its mechanisms when the name does not already say them."""
-    mechanisms = _mechanisms(model_summary)
+    mechanisms = described(model_summary)
     return name if mechanisms == name else f"{name} ({mechanisms})"
 
 
-def _mechanisms(model_summary) -> str:
-    text = " + ".join(model_summary["mechanisms"])
-    return text + (" with " + ", ".join(model_summary["effects"]) if model_summary["effects"] else "")
+
 
 
 def _outside(value, interval) -> bool:
     return value is not None and interval is not None and not interval[0] <= value <= interval[1]
-

@@ -121,3 +121,13 @@ def test_caveats_say_what_to_doubt_and_do_in_plain_words(report):
     assert len(resolution) == 1 and best in resolution[0] and "--n-intervals" in resolution[0]
     for caveat in unsettled + resolution:
         assert "R-hat" not in caveat and " sd" not in caveat and "Convergence" in caveat
+
+
+def test_a_model_is_described_by_its_mechanisms_and_effects():
+    """Mechanisms joined by '+', effects after 'with'; a model of effects alone by its effects."""
+    from bayesbeam.compare import described
+
+    assert described({"mechanisms": ["air", "strain_rate"], "effects": []}) == "air + strain_rate"
+    assert described({"mechanisms": ["air"], "effects": ["sensor_mass"]}) == "air with sensor_mass"
+    assert described({"mechanisms": [], "effects": ["root_compliance", "root_damping"]}) == \
+        "root_compliance, root_damping"
