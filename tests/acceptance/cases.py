@@ -5,8 +5,8 @@ anti-alias FIR, seeded sensor and force noise), never by :class:`bayesbeam.model
 Every beam.toml states a modulus 7 % above the true one, so the EI prior (centred on the nominal
 EI) is centred away from the truth, as it is for a real beam whose modulus comes from a handbook.
 
-Beams and damping are those of :mod:`tests.inference.cases` (realistic modal damping ratios of
-0.01-1 %): the paper's beam (1 s at 512 Hz, a 4 ms Gaussian hammer pulse at 0.75 m) and an
+Beams are those of :mod:`tests.inference.cases`, damping and noise those of
+:mod:`tests.reference.recordings` (realistic modal damping ratios of 0.01-1 %): the paper's beam (1 s at 512 Hz, a 4 ms Gaussian hammer pulse at 0.75 m) and an
 aluminium strip with a 50 g tip block (1 s at 1024 Hz, a 1 ms pulse: a hard hammer tip).
 Noise: 2 % of each channel's RMS on the sensors, 0.5 % of the peak on the force.
 """
@@ -19,18 +19,13 @@ import numpy as np
 
 from bayesbeam.io import Beam, Sensor
 from tests.inference import cases
-from tests.reference import Hammer, Noise, Release, record
+from tests.reference import Hammer, Release, record
+from tests.reference.recordings import ALU_DAMPING, NOISE, PAPER_DAMPING
 
 #: the beam.toml's modulus over the true one
 NOMINAL_OVER_TRUE = 1.07
-NOISE = Noise(sensor=0.02, force=0.005)
-
 #: damping of each model on each beam (the paper's names, SI units), EI excluded
-DAMPING = {
-    "paper": {**{m: {k: v for k, v in p.items() if k != "EI"} for m, p in cases.TRUTH.items()},
-              "strain_rate": {"cdI": 7e-5}},
-    "alu": {m: {k: v for k, v in p.items() if k != "EI"} for m, p in cases.ALU_TRUTH.items()},
-}
+DAMPING = {"paper": PAPER_DAMPING, "alu": ALU_DAMPING}
 #: concealed effects on the paper beam's q1 (the reference's names): a root spring of 100 EI/l
 #: (mode 1 1.9 % low), a 0.5 ms delay of the response channels, a 10 g sensor at the tip
 EFFECTS = {"root_compliance": {"k_theta": 4428.0}, "measurement_delay": {"tau": 5e-4},
