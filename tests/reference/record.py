@@ -75,7 +75,7 @@ _CLEAN: dict[str, tuple] = {}
 def simulate(case: BeamCase, excitation, fs: float, n: int, numerics: Numerics = Numerics()):
     """Clean recorded signals: (force (n,) N or None, responses (n, n_sensors)) sampled at k / fs.
 
-    Remembered for the session (keyed by the inputs' repr), so that repeated noise draws of one
+    Remembered for the test run (keyed by the inputs' repr), so that repeated noise draws of one
     test cost one simulation.
     """
     key = repr((case, excitation, fs, n, numerics))

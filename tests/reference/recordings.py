@@ -15,8 +15,8 @@ nothing of the model's tests). Effects: a root spring (3500 N m/rad, mode 1 abou
 under q1 and under q2), a 0.5 ms delay of the response channels, a 20 g sensor mass at the tip. Null recordings (no
 effect) include one with a tip displacement channel and a release test.
 
-Use the session fixture: import ``reference_recordings`` into a conftest or test module, then
-``reference_recordings("paper_q3")`` is the folder (built once per session, about 0.3-0.6 s each);
+Use the fixture (one per test run): import ``reference_recordings`` into a conftest or test module, then
+``reference_recordings("paper_q3")`` is the folder (built once per run, about 0.3-0.6 s each);
 ``reference_recordings("paper_q1", seed=3)`` is another noise draw of the same test. Outside
 pytest, :func:`build` writes one into a folder of your choice. truth.json holds the true values.
 """
@@ -119,7 +119,7 @@ def build(name: str, out, seed: int | None = None) -> Path:
 
 @pytest.fixture(scope="session")
 def reference_recordings(tmp_path_factory):
-    """A function name, seed=None -> folder of that recording, built once per session."""
+    """A function name, seed=None -> folder of that recording, built once per run."""
     root = tmp_path_factory.mktemp("reference_recordings")
     built: dict[tuple, Path] = {}
 
