@@ -433,8 +433,9 @@ def improved(before: Mismatch, after: Mismatch) -> bool:
     """
     rms_before, rms_after = before.rms_standardized_residual, after.rms_standardized_residual
     equal = abs(rms_after - rms_before) <= RMS_EQUAL * rms_before
-    return (flags(after) <= flags(before) and (equal or rms_after < rms_before)
-            and (flags(after) < flags(before) or not equal))
+    rms_better = rms_after < rms_before and not equal
+    flags_before, flags_after = flags(before), flags(after)
+    return flags_after <= flags_before and (equal or rms_better) and (flags_after < flags_before or rms_better)
 
 
 # ---------------------------------------------------------------------------- diagnosis.json

@@ -696,16 +696,24 @@ def _line_note(f_line, c, lik, s: Setting, params) -> str:
     zeta = np.interp(f_line, f, lik.model.modal_damping_ratios(params))
     beam = float(np.exp(-2 * np.pi * f_line * zeta * 2 / 3 * (proj.i1 - proj.i0) / proj.fs))
     text = f"residual line at {f_line:.4g} Hz, away from every model mode"
-    harmonic = [(round(f_line / m), m) for m in MAINS_HZ
-                if round(f_line / m) >= 1 and abs(f_line - m * round(f_line / m)) <= proj.fs / proj.block]
+    harmonic = mains_harmonic(f_line, proj.fs / proj.block)
     if ratio >= PERSISTENT and beam < PERSISTENT:
-        cause = f" (at {harmonic[0][0]} x {harmonic[0][1]:g} Hz: mains pickup)" if harmonic else ""
+        cause = f" (at {harmonic[0]} x {harmonic[1]:g} Hz: mains pickup)" if harmonic else ""
         return (f"{text}; its amplitude keeps {ratio:.0%} from the first to the last third of the window where "
                 f"the beam would keep {beam:.0%}: it does not decay with the beam, not beam physics{cause}")
     if ratio >= PERSISTENT:
         return (f"{text}; it does not decay ({ratio:.0%} kept), but neither would the beam ({beam:.0%}) in "
                 f"this window: cannot tell from its decay whether it is beam physics")
     return f"{text}; it decays ({ratio:.0%} kept over the window): physics the model lacks (a mode it does not have?)"
+
+
+def mains_harmonic(f: float, tolerance: float) -> tuple[int, float] | None:
+    """(k, mains frequency) when ``f`` lies within ``tolerance`` (Hz) of k x 50 or k x 60 Hz, else None."""
+    for m in MAINS_HZ:
+        k = round(f / m)
+        if k >= 1 and abs(f - k * m) <= tolerance:
+            return k, m
+    return None
 
 
 def line_persistence(residual: np.ndarray, proj, f_line: float) -> float:

@@ -28,7 +28,7 @@ from itertools import pairwise
 import numpy as np
 from scipy import signal
 
-from bayesbeam.checks.discrepancy import MAINS_HZ, PERSISTENT, line_persistence
+from bayesbeam.checks.discrepancy import PERSISTENT, line_persistence, mains_harmonic
 from bayesbeam.inference.fit import DEFAULT_BAND
 from bayesbeam.modal.eigen import natural_frequencies_hz
 from bayesbeam.response.linear import PASSBAND
@@ -195,7 +195,7 @@ def spectral_peaks(spectrum: Spectrum, floor: float, fs: float) -> np.ndarray:
     chosen: list[float] = []
     for k in index[np.argsort(props["peak_heights"])[::-1]]:
         f = float(spectrum.frequency[k])
-        if all(abs(f - g) > SEPARATION * g or mains_harmonic(g, df) for g in chosen):
+        if all(abs(f - g) > SEPARATION * g or mains_harmonic(g, 2 * df) for g in chosen):
             chosen.append(f)
         if len(chosen) == MAX_PEAKS:
             break
@@ -216,22 +216,13 @@ class _Span:
         return self.i1 - self.i0
 
 
-def mains_harmonic(f: float, df: float) -> tuple[int, float] | None:
-    """(k, mains frequency) when ``f`` lies within two bins ``df`` of k x 50 or k x 60 Hz, else None."""
-    for m in MAINS_HZ:
-        k = round(f / m)
-        if k >= 1 and abs(f - k * m) <= 2 * df:
-            return k, m
-    return None
-
-
 def mains_lines(rec, j: int, spectrum: Spectrum, peaks: np.ndarray) -> list[dict]:
     """Peaks at a multiple of 50 or 60 Hz (within two bins) that do not decay over the record."""
     df = spectrum.frequency[1]
     span = _Span(rec.fs, _segment_start(rec), rec.n_samples)
     lines = []
     for f in peaks:
-        harmonic = mains_harmonic(f, df)
+        harmonic = mains_harmonic(f, 2 * df)
         if harmonic is None:
             continue
         kept = line_persistence(rec.signals[:, j], span, float(f))
