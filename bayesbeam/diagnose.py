@@ -35,6 +35,7 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
    set-up allows (:func:`stand_in`) is reported as a stand-in, "a structural mismatch the
    catalogue cannot name", not as missing physics found: the fit uses its freedom for something
    else. It is added like any effect (it does improve the fit), and diagnosis.json says which.
+   An effect given with the baseline is judged by the same rule (:func:`given_stand_ins`).
 8. **Show.** Whatever beam physics the final model still misses (map regions not labelled as
    pickup) is reported as ``unexplained``, with where it is, when its misfit is also practically
    significant: at least :data:`~bayesbeam.checks.discrepancy.PRACTICAL_SHARE` (1 %) of the
@@ -444,13 +445,15 @@ def summarise(d: Diagnosis) -> dict:
     base, final = d.baseline, d.final
     rec = base.problem.model.recording
     candidates = [_trial_entry(t, d.signature(t)) for t in d.trials]
+    given = given_stand_ins(d)
     return {
         "recording": str(rec.source) if rec.source else None,
         "baseline": _model_entry(base, d.baseline_mismatch),
         "mismatch": d.baseline_mismatch.regions,
         "candidates": candidates,
         "added": d.added,
-        "stand_ins": [c["effect"] for c in candidates if c["added"] and c["stand_in"]],
+        "stand_ins": [c["effect"] for c in candidates if c["added"] and c["stand_in"]] + list(given),
+        "given_stand_ins": given,
         "unexplained": d.unexplained,
         "unexplained_regions": d.remaining(),
         "negligible_regions": d.negligible(),
@@ -487,8 +490,23 @@ def _model_entry(result, mismatch: Mismatch) -> dict:
 
 def effect_parameters(trial: Trial) -> dict:
     """Posterior summary of the added effect's own parameters."""
-    effect = next(e for e in trial.result.problem.model.effects if e.name == trial.effect)
-    return {k: v for k, v in posterior_summary(trial.result).items() if k in effect.parameters}
+    return _own_parameters(trial.result, trial.effect)
+
+
+def _own_parameters(result, effect_name: str) -> dict:
+    """Posterior summary of the parameters of ``result``'s effect ``effect_name``."""
+    effect = next(e for e in result.problem.model.effects if e.name == effect_name)
+    return {k: v for k, v in posterior_summary(result).items() if k in effect.parameters}
+
+
+def given_stand_ins(d: Diagnosis) -> dict[str, dict]:
+    """The stand-in verdicts (:func:`stand_in`) of the effects the user gave with the baseline
+    (``effects=``, ``--effect``), judged on the final model's posterior: a given effect is bounded
+    by the set-up exactly as an added one is."""
+    rec = d.baseline.problem.model.recording
+    verdicts = {e.name: stand_in(e.name, _own_parameters(d.final, e.name), rec)
+                for e in d.baseline.problem.model.effects}
+    return {name: verdict for name, verdict in verdicts.items() if verdict}
 
 
 def allowed_by_setup(effect: str, rec) -> dict[str, tuple[float, float]]:
@@ -564,6 +582,7 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
             f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz on {r['sensor']}: {r['note']}" for r in lines) + ".")
     if not beam_regions(bmap) and not d.trials:
         text.append("Nothing the damping model leaves out shows above the noise: no effect was added.")
+        text += [_stand_in_sentence(effect, verdict) for effect, verdict in given_stand_ins(d).items()]
         return " ".join(text)
     rec = d.baseline.problem.model.recording
     verdicts = [stand_in(t.effect, summary, rec) for t, summary in zip(d.trials, parameters)]
@@ -582,6 +601,7 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     else:
         text.append("No catalogue effect explains the mismatch.")
     text += [_stand_in_sentence(t.effect, verdict) for t, verdict in zip(d.trials, verdicts) if t.added and verdict]
+    text += [_stand_in_sentence(effect, verdict) for effect, verdict in given_stand_ins(d).items()]
     if d.not_fitted:
         text.append("Not fitted: " + "; ".join(f"{n.model} ({n.reason})" for n in d.not_fitted) + ".")
     if d.recheck is not None:

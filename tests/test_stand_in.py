@@ -129,3 +129,29 @@ def test_the_reports_lead_keeps_a_stand_in_apart_from_the_findings(median, words
                "final": {**model, "model": "q1+sensor_mass", "parameters": entry["parameters"]}}
     missing = lead(summary)[0]
     assert words in missing and not_words not in missing
+
+
+# ---------------------------------------------------------------------------- an effect given with the baseline
+def given(median):
+    """A diagnosis of ``q1+sensor_mass`` given by the user: nothing added, m_s about ``median``."""
+    rec = recording()
+    base = _result("q1+sensor_mass", 100.0, rec, "sensor_mass", median)
+    return Diagnosis(base, _map(1.0), [], [], base, _map(1.0), None, 1.0)
+
+
+@pytest.mark.parametrize(("median", "expected"), [(0.080, True), (0.0065, False)])
+def test_an_effect_given_with_the_baseline_is_judged_by_the_same_rule(median, expected):
+    """The set-up bounds a sensor mass the user named as it bounds one the diagnosis adds: 80 g on
+    a stated 6 g accelerometer is a stand-in whether or not the catalogue search put it there."""
+    from bayesbeam.diagnose import given_stand_ins
+    from bayesbeam.report.diagnosis import lead
+
+    d = given(median)
+    verdicts = given_stand_ins(d)
+    assert ("sensor_mass" in verdicts) == expected
+    text = paragraph(d, [])
+    assert ("Stand-in, not a finding: sensor_mass's m_s" in text) == expected
+    model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 100.0}
+    summary = {"baseline": {**model, "model": "q1+sensor_mass"}, "unexplained": False, "candidates": [],
+               "final": {**model, "model": "q1+sensor_mass"}, "given_stand_ins": verdicts}
+    assert ("Not a finding: the given sensor_mass stands in" in lead(summary)[0]) == expected

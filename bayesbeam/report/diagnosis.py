@@ -102,6 +102,13 @@ def lead(summary: dict) -> list[str]:
 
 
 def _missing_sentence(summary) -> str:
+    given = " ".join(f"Not a finding: the given {effect} stands in for a structural mismatch the catalogue cannot "
+                     f"name ({v['parameter']} = {v['median']:.4g} {v['unit']}, {v['why']})."
+                     for effect, v in summary.get("given_stand_ins", {}).items())
+    return " ".join(text for text in (_found_sentence(summary), given) if text)
+
+
+def _found_sentence(summary) -> str:
     base = summary["baseline"]["model"]
     added = [c for c in summary["candidates"] if c["added"]]
     if added:
