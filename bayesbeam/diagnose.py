@@ -504,8 +504,9 @@ def given_stand_ins(d: Diagnosis) -> dict[str, dict]:
     (``effects=``, ``--effect``), judged on the final model's posterior: a given effect is bounded
     by the set-up exactly as an added one is."""
     rec = d.baseline.problem.model.recording
+    final = {e.name for e in d.final.problem.model.effects}
     verdicts = {e.name: stand_in(e.name, _own_parameters(d.final, e.name), rec)
-                for e in d.baseline.problem.model.effects}
+                for e in d.baseline.problem.model.effects if e.name in final}
     return {name: verdict for name, verdict in verdicts.items() if verdict}
 
 
