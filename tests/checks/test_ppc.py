@@ -1,11 +1,19 @@
-"""Posterior predictive checks: they pass the true model and flag a wrong damping mechanism.
+"""Posterior predictive checks: they pass the true model and flag a wrong damping mechanism, on a
+recording the model did not make.
 
-Draws come from the Laplace approximation at the optimum (cheap and, for these well-determined
-posteriors, close to the posterior), so the test isolates the checks from the sampler.
-Thresholds: a p-value below 0.05 counts as flagged (the true model: see its test); the wrong model below
-misses mode 1's damping by a factor ~100 (strain-rate damping alone cannot damp mode 1), far beyond
-what 100 replicates can mistake, and the true model's p-values are uniform in expectation, so
-each passes with probability ~0.95 (the seed is fixed: the outcome is reproducible).
+Recording: the reference simulator's hammer test of the paper's beam with q1 damping
+(tests/acceptance/cases.py: 1 s at 512 Hz, 2 % sensor noise, force noise 0.5 % of the peak,
+beam.toml's modulus 7 % above the truth; seed 21, the first tried), fitted with q1 (the truth) and
+strain_rate alone at quintic N = 8 (the N the automatic choice takes on these recordings,
+tests/acceptance/test_compare.py). Draws come from the Laplace approximation at the optimum (cheap
+and, for these well-determined posteriors, close to the posterior: tests/acceptance/
+test_calibration.py measures q1's importance-sampled sd at 1.02-1.10 x Laplace's), so the test
+isolates the checks from the sampler. Thresholds: a p-value below 0.05 counts as flagged (the true
+model: see its test); strain-rate damping alone cannot damp mode 1 (its modal damping grows with
+the square of the frequency), and its 90 % predictive interval for mode 1's damping ratio lies 3.7
+to 66 times below the measured one, far beyond what 100 replicates can mistake; the true model's
+p-values are uniform in expectation, so each passes with probability ~0.95 (the seed is fixed: the
+outcome is reproducible).
 """
 import numpy as np
 import pytest
@@ -13,6 +21,7 @@ import pytest
 from bayesbeam.checks.ppc import era_modes, mode_table, posterior_predictive_check
 from bayesbeam.inference.fit import FitConfig, prepare
 from bayesbeam.inference.sampler import find_optimum
+from tests.acceptance import cases as ac
 from tests.inference import cases
 
 
@@ -23,10 +32,10 @@ def laplace_draws(post, n, seed):
 
 @pytest.fixture(scope="module")
 def checks():
-    rec, _ = cases.simulated("q1", seed=3)
+    rec, _ = ac.hammer("q1", seed=21)
     out = {}
     for model in ("q1", "strain_rate"):
-        post = prepare(rec, model, FitConfig(n_intervals=6), 6).posterior
+        post = prepare(rec, model, FitConfig(degree=5, n_intervals=8), 8).posterior
         out[model] = posterior_predictive_check(post, laplace_draws(post, 200, 1), np.random.default_rng(2), 100)
     return out
 
