@@ -6,11 +6,14 @@
 >>> y = model.simulate({"EI": 44.0, "gamma": 0.09, "a": 1e-3, "b": 0.06})   # (n_samples, n_sensors)
 
 Parameters use the paper's names in SI units: EI (N m^2) and those of each mechanism
-(gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, r s, a N s, b m).
+(gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, r s, a N s, b m). A sensor whose
+location beam.toml states with a tolerance adds its offset dx_<sensor> (m) to every model
+(:meth:`BeamModel.placement`).
 """
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from functools import cached_property
 
 import numpy as np
@@ -37,6 +40,11 @@ from bayesbeam.response.signals import impact_window
 from bayesbeam.response.system import LOW_RANK_MAX, ReferencePair, SecondOrderSystem, undamped_modes
 
 PARAMETER_UNITS = {"EI": "N m^2"}
+#: the name of the fitted offset of sensor <s> from its stated location (m), a parameter of every
+#: model when beam.toml states the sensor's ``location_tolerance`` (see :meth:`BeamModel.placement`)
+SENSOR_OFFSET = "dx_{}"
+#: the set-up's fitted tolerances as ``bayesbeam models`` lists them, with their units
+SETUP_PARAMETER_UNITS = {SENSOR_OFFSET.format("<s>"): "m"}
 #: reference beams whose modes a model keeps (see :meth:`BeamModel._reference`): a sampler's
 #: cloud spans a few grid points, an optimiser's path some more; 32 at N = 48 hold 2.5 MB
 REFERENCES_KEPT = 32
@@ -108,6 +116,18 @@ def _check_requirements(model) -> None:
                              f"use {'+'.join(names + missing)}")
 
 
+def _fitted_offsets(recording: Recording) -> dict[str, int]:
+    """{``dx_<s>``: sensor index} of the sensors whose location beam.toml states with a tolerance > 0."""
+    tolerances = recording.setup.location_tolerances
+    return {SENSOR_OFFSET.format(s.name): i for i, (s, tol) in enumerate(zip(recording.sensors, tolerances))
+            if tol > 0}
+
+
+def _differ(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    """Whether two optional matrices differ (None and None do not)."""
+    return (a is None) != (b is None) or (a is not None and not np.array_equal(a, b))
+
+
 class BeamModel:
     """A cantilever with tip body, damping mechanisms, and one recording's test set-up.
 
@@ -147,6 +167,7 @@ class BeamModel:
         self.setup = Setup(tuple(s.location for s in recording.sensors),
                            exc.location if exc.kind == "force" else None)
         self.rows = self.ops.rows([s.location for s in recording.sensors])
+        self.offsets = _fitted_offsets(recording)
         self.orders = np.array([ORDERS[s.quantity] for s in recording.sensors])
         _check_nonlinear(self)
         self.grid = FrequencyGrid(recording.n_samples, recording.dt)
@@ -172,17 +193,19 @@ class BeamModel:
 
     @cached_property
     def parameter_names(self) -> tuple[str, ...]:
-        """Names of the free parameters, in order: EI, each mechanism's, each effect's."""
+        """Names of the free parameters, in order: EI, each mechanism's, each effect's, then the
+        offset ``dx_<s>`` of each sensor whose location beam.toml states with a tolerance."""
         names = ["EI"]
         for c in self.components:
             names += [p for p in c.parameters if p not in c.defaults]
-        return tuple(names)
+        return tuple(names) + tuple(self.offsets)
 
     @cached_property
     def units(self) -> dict[str, str]:
         out = dict(PARAMETER_UNITS)
         for c in self.components:
             out.update(c.units)
+        out.update(dict.fromkeys(self.offsets, "m"))
         return out
 
     def values(self, params: Mapping[str, float] | Sequence[float]) -> dict[str, float]:
@@ -207,7 +230,38 @@ class BeamModel:
             c.check(out)
         if not (np.isfinite(out["EI"]) and out["EI"] > 0):
             raise ValueError(f"EI = {out['EI']!r} N m^2 is not physical (must be finite and > 0)")
+        self._check_offsets(out)
         return out
+
+    def _check_offsets(self, v: dict[str, float]) -> None:
+        """ValueError when a fitted sensor offset puts its sensor off the beam."""
+        length = self.ops.length
+        for name, index in self.offsets.items():
+            x = self.setup.sensor_locations[index] + v[name]
+            if not (np.isfinite(x) and 0.0 <= x <= length):
+                raise ValueError(f"{name} = {v[name]!r} m puts sensor {self.recording.sensors[index].name!r} "
+                                 f"at {x!r} m, off the beam [0, {length}] m")
+
+    def placement(self, v: dict[str, float]) -> tuple[np.ndarray, Setup]:
+        """(point rows of the sensors, the :class:`Setup` the effects see) at values checked by
+        :meth:`values`: the sensors sit at their stated locations plus the fitted offsets
+        ``dx_<s>``, and an effect placed at a sensor (the sensor's own mass) moves with it.
+
+        Without fitted offsets both are the model's own, built once (:attr:`rows`, :attr:`setup`).
+        """
+        if not self.offsets:
+            return self.rows, self.setup
+        setup = self._setup_at(v)
+        return self.ops.rows(setup.sensor_locations), setup
+
+    def _setup_at(self, v: dict[str, float]) -> Setup:
+        """The :class:`Setup` of :meth:`placement` alone (no rows evaluated)."""
+        if not self.offsets:
+            return self.setup
+        locations = list(self.setup.sensor_locations)
+        for name, index in self.offsets.items():
+            locations[index] += v[name]
+        return replace(self.setup, sensor_locations=tuple(locations))
 
     # ------------------------------------------------------------------ physics
     def system(self, params) -> SecondOrderSystem:
@@ -238,8 +292,9 @@ class BeamModel:
             g = m.relaxation(v)
             if g is not None:
                 relaxations.append(g)
+        setup = self._setup_at(v)
         for e in self.effects:
-            d = e.damping(ops, v, self.setup)
+            d = e.damping(ops, v, setup)
             if d is not None:
                 damping = damping + d
         relaxation = None
@@ -255,18 +310,20 @@ class BeamModel:
         K = EI K0, whose modes are (EI omega_0^2, Phi_0) of (K0, M): computed once per model,
         not once per call, and the same for a model with a vanishing effect as without it.
         """
-        mass, stiffness, added = self._with_effects([v] * len(self.effects), self.ops.M, v["EI"] * self.ops.K0)
+        mass, stiffness, added = self._with_effects([v] * len(self.effects), self.ops.M, v["EI"] * self.ops.K0,
+                                                    self._setup_at(v))
         if added:
             return mass, stiffness, None
         lam0, phi0 = self._unit_modes
         return mass, stiffness, (v["EI"] * lam0, phi0)
 
-    def _with_effects(self, points, mass: np.ndarray, stiffness: np.ndarray):
+    def _with_effects(self, points, mass: np.ndarray, stiffness: np.ndarray, setup: Setup):
         """``mass`` and ``stiffness`` plus each effect's added matrices at its values in ``points``
-        (one dict per effect), and whether any effect added a nonzero matrix."""
+        (one dict per effect) and sensors placed as in ``setup``, and whether any effect added a
+        nonzero matrix."""
         ops, added = self.ops, False
         for e, p in zip(self.effects, points, strict=True):
-            added_mass, added_stiffness = e.mass(ops, p, self.setup), e.stiffness(ops, p, self.setup)
+            added_mass, added_stiffness = e.mass(ops, p, setup), e.stiffness(ops, p, setup)
             if added_mass is not None and np.any(added_mass):
                 mass, added = mass + added_mass, True
             if added_stiffness is not None and np.any(added_stiffness):
@@ -282,10 +339,11 @@ class BeamModel:
         Each effect's matrix scales with its parameter, so the directions are parameter-free:
         found once, with every effect at unit values. None when some mechanism's damping is not
         a combination of M_0 and K_0 (then the bare modes do not diagonalise it), when nothing
-        departs, or when the rank exceeds what the ``low_rank`` form takes (an axial load's
-        geometric stiffness has full rank).
+        departs, when the rank exceeds what the ``low_rank`` form takes (an axial load's
+        geometric stiffness has full rank), or when an effect's matrices move with a fitted sensor
+        position (the sensor's own mass): then the directions change with the parameters.
         """
-        if not all(m.bare_modal for m in self.mechanisms):
+        if not all(m.bare_modal for m in self.mechanisms) or self._effects_follow_sensors:
             return None
         ops, unit = self.ops, {p: 1.0 for e in self.effects for p in e.parameters}
         blocks = [ops.M - ops.rho_a * ops.M0]
@@ -295,6 +353,22 @@ class BeamModel:
         u, sv, _ = np.linalg.svd(np.hstack(blocks), full_matrices=False)
         rank = int(np.sum(sv > 1e-12 * sv[0])) if sv[0] > 0 else 0
         return u[:, :rank] if 0 < rank <= LOW_RANK_MAX else None
+
+    @cached_property
+    def _effects_follow_sensors(self) -> bool:
+        """Whether some effect's matrices change when the fitted sensor offsets move the sensors
+        (found by moving every fitted sensor towards mid-span by half its tolerance, at most a
+        quarter of the length, so that it stays on the beam)."""
+        if not self.offsets or not self.effects:
+            return False
+        tolerances = self.recording.setup.location_tolerances
+        half_span = 0.5 * self.ops.length
+        moved = self._setup_at({name: np.copysign(0.5 * min(tolerances[i], half_span),
+                                                  half_span - self.setup.sensor_locations[i])
+                                for name, i in self.offsets.items()})
+        unit = {p: 1.0 for e in self.effects for p in e.parameters}
+        return any(_differ(form(self.ops, unit, self.setup), form(self.ops, unit, moved))
+                   for e in self.effects for form in (e.mass, e.stiffness, e.damping))
 
     def _reference(self, v: dict[str, float]) -> ReferencePair:
         """The reference beam (M_r, EI K_1) near these values that the effects depart from along
@@ -306,7 +380,7 @@ class BeamModel:
         key = tuple(sorted(item for p in points for item in p.items()))
         cached = self._references.pop(key, None)
         if cached is None:
-            m_r, k_1, _ = self._with_effects(points, self.ops.M, self.ops.K0)
+            m_r, k_1, _ = self._with_effects(points, self.ops.M, self.ops.K0, self.setup)
             cached = (m_r, k_1, *undamped_modes(k_1, m_r))
             if len(self._references) >= REFERENCES_KEPT:
                 del self._references[next(iter(self._references))]     # the least recently used
@@ -358,14 +432,16 @@ class BeamModel:
         ``values`` (checked by :meth:`values`) supply the delay; the nonlinear integrator adds
         its nonlinear part to this.
         """
-        return self._output(transfer(system, self.grid, self.rows, self.load), system, values)
+        rows, _ = self.placement(values)
+        return self._output(transfer(system, self.grid, rows, self.load), system, values)
 
     def _output(self, h: np.ndarray, system: SecondOrderSystem, values: dict[str, float]) -> np.ndarray:
         """:meth:`linear_response` from the transfer function ``h`` already evaluated on the grid."""
         y = self.grid.samples(h * self._delayed(self.drive, values))
         exc = self.recording.excitation
         if exc.kind == "release":
-            y += static_offset(system, self.rows, self.orders, self.load, exc.tip_load)[None, :]
+            rows, _ = self.placement(values)
+            y += static_offset(system, rows, self.orders, self.load, exc.tip_load)[None, :]
         return y
 
     def simulate_with_impulses(self, params, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -383,7 +459,7 @@ class BeamModel:
             raise ValueError("force-sample responses need a recording with a measured force")
         values = self.values(params)
         system = self._system(values)
-        h = transfer(system, self.grid, self.rows, self.load)
+        h = transfer(system, self.grid, self.placement(values)[0], self.load)
         y = self.simulate(values) if any(not e.linear for e in self.effects) else self._output(h, system, values)
         columns = unit_sample_responses(self.grid, h * self._delayed(self._unit_drive, values), index)
         return y, columns
@@ -423,14 +499,15 @@ class BeamModel:
         Exact for models without memory; with time hysteresis it keeps the pole part and omits
         the small non-oscillatory creep of the memory's branch cut.
         """
-        system = self.system(params)
+        values = self.values(params)
+        system = self._system(values)
         poles = system.poles(below=2 * np.pi * STOPBAND * self.recording.fs)
         shapes = system.mode_shapes(poles)
         tau, mask = self.recording.time[samples] - self.recording.excitation.start, self.fit_mask[samples]
         waves = np.exp(np.outer(np.where(mask, tau, 0.0), poles))
         waves[~mask] = 0.0
-        gain = (self.rows @ shapes) * poles[None, :] ** self.orders[:, None]
-        gain = gain * np.exp(-poles * self.delay(params))[None, :]
+        gain = (self.placement(values)[0] @ shapes) * poles[None, :] ** self.orders[:, None]
+        gain = gain * np.exp(-poles * self._delay(values))[None, :]
         resp = waves[:, None, :] * gain[None, :, :]
         return np.concatenate([resp.real, -resp.imag], axis=2)
 

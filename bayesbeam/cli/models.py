@@ -26,8 +26,8 @@ def _beam(path):
 def listing(beam=None) -> list[str]:
     """The lines ``bayesbeam models`` prints; default priors as numbers when ``beam`` is given."""
     from bayesbeam.compare import MODEL_SETS
-    from bayesbeam.inference.priors import NOISE_DEFAULTS, SCALES
-    from bayesbeam.model import PARAMETER_UNITS
+    from bayesbeam.inference.priors import NOISE_DEFAULTS, OFFSET_PRIOR, SCALES
+    from bayesbeam.model import PARAMETER_UNITS, SETUP_PARAMETER_UNITS
     from bayesbeam.physics.effects import REGISTRY as EFFECTS
     from bayesbeam.physics.mechanisms import PRESETS
     from bayesbeam.physics.mechanisms import REGISTRY as MECHANISMS
@@ -47,6 +47,8 @@ def listing(beam=None) -> list[str]:
     lines += ["", "Noise, per sensor channel <s> (--noise white: sigma_<s>; --noise ar1: also phi_<s>):"]
     units = {"sigma": "channel unit", "phi": "-"}
     lines += [_parameter_line(f"{name}_<s>", units[name], None, prior_of=name) for name in NOISE_DEFAULTS]
+    lines += ["", "Set-up, per sensor <s> whose beam.toml [[sensor]] states location_tolerance > 0 (every model):"]
+    lines += [f"      {name:<11} {unit:<14} {OFFSET_PRIOR}" for name, unit in SETUP_PARAMETER_UNITS.items()]
     if beam is None:
         scales = ", ".join(s for s in SCALES if s and s != "RMS")
         lines += ["", (f"Prior scales: {scales} of the beam.toml (RMS: the channel's). --beam BEAM_TOML "

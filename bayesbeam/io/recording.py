@@ -165,7 +165,9 @@ class SetUp:
     tip_rotary_inertia_tolerance (kg m^2): m_T and J lie within +- these. sensor_masses: each
     sensor's own mass (kg) in the order of ``Recording.sensors``, None where not stated.
     location_tolerances: each sensor sits within its location +- this (m). A tolerance of 0
-    means the value is taken as stated.
+    means the value is taken as stated. sensors: the recording's sensors the per-sensor entries
+    refer to (their names and stated locations; not compared by ``==``, which compares what is
+    stated about them).
     """
 
     length_tolerance: float = 0.0
@@ -173,6 +175,7 @@ class SetUp:
     tip_rotary_inertia_tolerance: float = 0.0
     sensor_masses: tuple[float | None, ...] = ()
     location_tolerances: tuple[float, ...] = ()
+    sensors: tuple[Sensor, ...] = field(default=(), compare=False)
 
     @property
     def stated_mass(self) -> float:
@@ -303,7 +306,7 @@ class Recording:
     def setup(self) -> SetUp:
         """What beam.toml states about the set-up (sensor masses, tolerances), checked;
         RecordingError naming the key and the fix for a non-numeric, negative or non-finite value."""
-        return _read_setup(self.setup_keys, len(self.sensors), self.beam.length,
+        return _read_setup(self.setup_keys, self.sensors, self.beam.length,
                            (self.source or Path(".")) / "beam.toml")
 
     def with_signals(self, signals) -> Recording:
@@ -549,7 +552,8 @@ def _stated_setup(doc: dict) -> dict:
     return stated
 
 
-def _read_setup(stated: dict, n_sensors: int, length: float, file: Path) -> SetUp:
+def _read_setup(stated: dict, sensor_list: tuple[Sensor, ...], length: float, file: Path) -> SetUp:
+    n_sensors = len(sensor_list)
     beam, tip = stated.get("beam", {}), stated.get("tip", {})
     sensors = list(stated.get("sensor", []))
     sensors += [{}] * (n_sensors - len(sensors))
@@ -566,6 +570,7 @@ def _read_setup(stated: dict, n_sensors: int, length: float, file: Path) -> SetU
                             for table, label in zip(sensors, labels)),
         location_tolerances=tuple(_non_negative(table, "location_tolerance", label, file)
                                   for table, label in zip(sensors, labels)),
+        sensors=tuple(sensor_list),
     )
 
 

@@ -154,9 +154,10 @@ def integrate(model, params, initial=None, substeps: int | None = None, *, law=N
     U = int(substeps or SUBSTEPS[effect.name])
     if U < 1:
         raise ValueError(f"substeps must be >= 1, got {U}")
-    plant = _Plant(model, system, U)
+    rows, setup = model.placement(values)
+    plant = _Plant(model, system, U, rows)
     if isinstance(effect, DryFriction):
-        e_row = effect.contact_row(model.ops, model.setup)
+        e_row = effect.contact_row(model.ops, setup)
         solver = _Friction(plant, e_row, effect.bound(values), record)
         force = solver.run()
         inputs, seq, hold = e_row[:, None], force[:, None, :], "moments"
@@ -270,13 +271,14 @@ def _cyclic_take(x: np.ndarray, start: int, count: int) -> np.ndarray:
 class _Plant:
     """The linear system on the fine grid: modes, input signals, and the exact output stage."""
 
-    def __init__(self, model, system: SecondOrderSystem, substeps: int):
+    def __init__(self, model, system: SecondOrderSystem, substeps: int, rows: np.ndarray):
         rec = model.recording
         # an FFT grid of its own with room for MARGIN samples before and after the record (and
         # for a release before the first sample), far from the windowed period's wrap-around
         before = max(0, int(np.ceil(float(rec.time[0]) / rec.dt)))
         grid = _plant_grid(rec.n_samples + 3 * MARGIN + before, rec.dt)
         self.model, self.system, self.grid = model, system, grid
+        self.rows = rows            # the sensors' point rows (n_sensors, n_dof), where they sit at these values
         self.n = system.size
         self.U = substeps
         self.h = rec.dt / substeps
@@ -372,7 +374,7 @@ class _Plant:
             spec = spec[0] * kernels[0] + spec[1] * kernels[1]
         if delay:
             spec *= np.exp(-grid.s * delay)
-        h = self.system.transfer(grid.s, model.rows, inputs)
+        h = self.system.transfer(grid.s, self.rows, inputs)
         out = np.einsum("for,rf->fo", h, spec)
         out *= np.stack([grid.s**q for q in model.orders], axis=1)
         return grid.samples(out)[: model.recording.n_samples]
