@@ -17,7 +17,7 @@ from dataclasses import replace
 from functools import cached_property
 
 import numpy as np
-from scipy import linalg
+from scipy import fft, linalg
 
 from bayesbeam.io import Recording
 from bayesbeam.physics import effects as effect_catalogue
@@ -31,6 +31,7 @@ from bayesbeam.response.linear import (
     FrequencyGrid,
     drive_spectrum,
     force_spectrum,
+    lagged_samples,
     release_spectrum,
     static_offset,
     transfer,
@@ -529,6 +530,57 @@ class BeamModel:
         a = basis.reshape(-1, basis.shape[-1])
         coef, *_ = linalg.lstsq(a, (y[mask] * weights[None, :]).ravel())
         return coef
+
+    # ------------------------------------------------------------------ batches of parameter sets
+    @property
+    def batches(self) -> bool:
+        """Whether :meth:`simulate_batch` evaluates its parameter sets together (linear models of
+        force and release recordings); otherwise it calls :meth:`simulate` for each."""
+        return self.recording.excitation.kind != "free_decay" and all(e.linear for e in self.effects)
+
+    def simulate_batch(self, params: Sequence) -> np.ndarray:
+        """:meth:`simulate` at each of P parameter sets: (n_samples, P, n_sensors).
+
+        Each set's transfer function is its own; the inverse FFT is one for the batch.
+        """
+        if not self.batches:
+            return np.stack([self.simulate(p) for p in params], axis=1)
+        return self._batch(params, None)[0]
+
+    def simulate_with_impulse_batch(self, params: Sequence, lags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`simulate_batch`, the response (len(lags), P, n_sensors) to a unit force sample (N)
+        at t = 0, at the integer sample ``lags``) of a linear model of a measured-force recording.
+
+        Column k of :meth:`simulate_with_impulses` is that response at lags n - index[k]
+        (:func:`~bayesbeam.response.linear.unit_sample_responses`); ``lags`` lie in
+        (-(n_fft - n), n).
+        """
+        if self.recording.excitation.kind != "force" or not self.batches:
+            raise ValueError("batched force-sample responses need a linear model of a recording with a "
+                             "measured force")
+        return self._batch(params, np.asarray(lags))
+
+    def _batch(self, params: Sequence, lags: np.ndarray | None):
+        """(outputs (n, P, c), unit-sample responses at ``lags`` (len(lags), P, c) or None)."""
+        values = [self.values(p) for p in params]
+        systems = [self._system(v) for v in values]
+        h = np.stack([transfer(s, self.grid, self.placement(v)[0], self.load) for s, v in zip(systems, values)],
+                     axis=1)                                                       # (n_freq, P, c)
+        y = self.grid.samples(h * self._delayed_batch(self.drive, values))
+        exc = self.recording.excitation
+        if exc.kind == "release":
+            y += np.stack([static_offset(s, self.placement(v)[0], self.orders, self.load, exc.tip_load)
+                           for s, v in zip(systems, values)])[None]
+        if lags is None:
+            return y, None
+        unit = h * self._delayed_batch(self._unit_drive, values)
+        return y, lagged_samples(self.grid, fft.irfft(unit, self.grid.n_fft, axis=0), lags)
+
+    def _delayed_batch(self, drive: np.ndarray, values: Sequence[dict]) -> np.ndarray:
+        """:meth:`_delayed` for each set (n_freq, P, c); ``drive`` broadcast when no set is delayed."""
+        if all(self._delay(v) == 0 for v in values):
+            return drive[:, None, :]
+        return np.stack([self._delayed(drive, v) for v in values], axis=1)
 
     # ------------------------------------------------------------------ input
     def _input(self):

@@ -21,7 +21,9 @@ The estimate of :math:`Z` is unbiased; :math:`\log Z` is biased low by about hal
 Its uncertainty is measured, not modelled: :func:`evidence` runs independent repeats (different
 seeds, fresh reference draws) and reports the mean of :math:`\log Z` with the standard error
 sd / sqrt(repeats). The repeats are independent jobs, so they parallelise across processes or a
-cluster.
+cluster. Within a run, a :class:`~bayesbeam.inference.posterior.LogPosterior`'s particles are
+evaluated together (the first draws, then each half of the ensemble per move:
+:func:`batched_terms`).
 
 The reference. :math:`q = \pi` is exact but needs many stages when the posterior is narrow
 against the prior. :func:`laplace_reference` builds a tighter one from the optimum: a
@@ -38,6 +40,8 @@ from dataclasses import dataclass
 import emcee
 import numpy as np
 from scipy import special
+
+from bayesbeam.inference.posterior import LogPosterior, batching
 
 #: effective sample size kept at each tempering step, as a fraction of the particles
 TARGET_ESS = 0.5
@@ -133,11 +137,12 @@ class TemperedTarget:
     r"""log f_beta(theta) with (log pi, log L, log q) as emcee blobs; picklable for process pools.
 
     ``terms``: callable theta -> (log prior, log likelihood), e.g. ``LogPosterior.terms`` or, in
-    pool workers, :func:`bayesbeam.inference.sampler.worker_terms`.
+    pool workers, :func:`bayesbeam.inference.sampler.worker_terms`; ``batch``: its batched form
+    (:func:`batched_terms`) for :meth:`many`.
     """
 
-    def __init__(self, terms, reference: Reference, beta: float):
-        self.terms, self.reference, self.beta = terms, reference, beta
+    def __init__(self, terms, reference: Reference, beta: float, batch=None):
+        self.terms, self.reference, self.beta, self.batch = terms, reference, beta, batch
 
     def __call__(self, theta):
         log_prior, log_lik = self.terms(theta)
@@ -145,6 +150,24 @@ class TemperedTarget:
             return -np.inf, log_prior, log_lik, -np.inf
         log_q = float(self.reference.log_density(theta)[0])
         return (1 - self.beta) * log_q + self.beta * (log_prior + log_lik), log_prior, log_lik, log_q
+
+    def many(self, thetas) -> list[tuple]:
+        """What :meth:`__call__` returns, for each row of ``thetas`` (emcee's ``vectorize``)."""
+        log_prior, log_lik = self.batch(thetas)
+        finite = np.isfinite(log_prior) & np.isfinite(log_lik)
+        log_q = np.where(finite, self.reference.log_density(thetas), -np.inf)
+        log_f = np.where(finite, (1 - self.beta) * log_q + self.beta * (log_prior + log_lik), -np.inf)
+        return list(zip(log_f, log_prior, log_lik, log_q))
+
+
+def batched_terms(terms, pool=None):
+    """thetas (P, ndim) -> (log priors, log likelihoods) evaluated together, when ``terms`` is a
+    :meth:`LogPosterior.terms` evaluated in this process (no ``pool``) and batching is on
+    (:func:`~bayesbeam.inference.posterior.batching`); else None (one call per particle)."""
+    owner = getattr(terms, "__self__", None)
+    if pool is not None or not isinstance(owner, LogPosterior) or terms.__func__ is not LogPosterior.terms:
+        return None
+    return owner.terms_batch if batching() else None
 
 
 # ---------------------------------------------------------------------------- one SMC run
@@ -168,8 +191,12 @@ def smc(terms, reference: Reference, rng: np.random.Generator, *, n_particles: i
     """One adaptive SMC run from ``reference`` to the posterior (see module docstring)."""
     started = time.perf_counter()
     theta = reference.sample(rng, n_particles)
-    mapper = pool.map if pool is not None else map
-    log_prior, log_lik = (np.array(v, float) for v in zip(*mapper(terms, list(theta))))
+    batch = batched_terms(terms, pool)
+    if batch is not None:
+        log_prior, log_lik = batch(theta)
+    else:
+        mapper = pool.map if pool is not None else map
+        log_prior, log_lik = (np.array(v, float) for v in zip(*mapper(terms, list(theta))))
     log_q = reference.log_density(theta)
     n_eval = n_particles
     beta, log_z, betas, acceptance = 0.0, 0.0, [0.0], []
@@ -235,10 +262,12 @@ def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_acc
     between coinciding particles divides by zero while a stretch move between them cannot move.)
     """
     n, ndim = theta.shape
-    target = TemperedTarget(terms, reference, beta)
+    target = TemperedTarget(terms, reference, beta, batched_terms(terms, pool))
     log_f = (1 - beta) * log_q + beta * (log_prior + log_lik)
     blobs = np.array(list(zip(log_prior, log_lik, log_q)), dtype=BLOBS)
-    sampler = emcee.EnsembleSampler(n, ndim, target, pool=pool, moves=emcee.moves.DEMove(), blobs_dtype=BLOBS)
+    vectorize = target.batch is not None
+    sampler = emcee.EnsembleSampler(n, ndim, target.many if vectorize else target, pool=pool,
+                                    moves=emcee.moves.DEMove(), blobs_dtype=BLOBS, vectorize=vectorize)
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
     state = emcee.State(theta, log_prob=log_f, blobs=blobs)
     steps = 0

@@ -50,6 +50,7 @@ Pointwise terms and predictions are conditional on the posterior mean :math:`A^{
 """
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -118,6 +119,50 @@ class BandProjection:
         spec = np.fft.rfft(seg, axis=1)[:, : self.n_bins] * self.scale.reshape((1, -1) + (1,) * (x.ndim - 1))
         parts = np.concatenate([spec.real, spec[:, 1:].imag], axis=1)
         return parts.reshape((self.size,) + x.shape[1:])
+
+    def project_shifted(self, h: np.ndarray, first: int, shifts: np.ndarray) -> np.ndarray:
+        r"""Coordinates of the shifted copies :math:`x_k[t] = h[t - s_k]` of signals h, without
+        building the copies: (K, ..., size), each ``[k, ...]`` equal to :meth:`project` of copy k.
+
+        ``h`` (n_h, ...) holds the signals at sample lags ``first``, ``first`` + 1, ... and must
+        cover the lags ``i0 - max(shifts)`` to ``i0 + n_blocks L - min(shifts) - 1``; ``shifts``
+        (K,) are integers. With :math:`u_b = i_0 + bL - s_0` (:math:`s_0` the smallest shift,
+        :math:`d_k = s_k - s_0`) and :math:`\omega = e^{-2\pi i f/L}` (so :math:`\omega^L = 1`),
+        a block's DFT of copy k differs from that of the least shifted copy only by the d_k
+        samples that enter and leave the block:
+
+        .. math:: \sum_{l<L} h[u_b + l - d]\,\omega^l = \omega^{d}\Big(A_b
+                  + \sum_{j=1}^{d} \big(h[u_b - j] - h[u_{b+1} - j]\big)\,\omega^{-j}\Big),
+                  \qquad A_b = \sum_{l<L} h[u_b + l]\,\omega^l :
+
+        one FFT per block and a running sum over the shifts, where the copies cost K FFTs per block
+        and the copies themselves an (n, K) gather (the force noise's K = 10 to 44 latent columns).
+        Rounding: a few eps of :math:`\sum_l |h[u_b + l]|`.
+        """
+        shifts = np.asarray(shifts, dtype=int)
+        rest = h.shape[1:]
+        h = h.reshape(h.shape[0], -1)
+        s0, d = shifts.min(), shifts - shifts.min()
+        starts = self.i0 + self.block * np.arange(self.n_blocks + 1) - s0 - first     # u_b in h's rows
+        if starts[0] - d.max() < 0 or starts[-1] > h.shape[0]:
+            raise ValueError(f"h covers lags {first} to {first + h.shape[0] - 1}: too few for shifts "
+                             f"{shifts.min()} to {shifts.max()} of the window {self.window}")
+        blocks = h[starts[0]:starts[-1]].T.reshape(-1, self.n_blocks, self.block)
+        steps = np.arange(d.max() + 1)
+        bins = np.arange(self.n_bins)
+        # running[j] = A + sum_{i<=j} (h[u_b - i] - h[u_{b+1} - i]) omega^-i: (D + 1, B, blocks, bins)
+        running = np.empty((steps.size,) + blocks.shape[:2] + (self.n_bins,), dtype=complex)
+        running[0] = np.fft.rfft(blocks, axis=-1)[..., :self.n_bins]
+        edge = (h[starts[:-1, None] - steps[1:]] - h[starts[1:, None] - steps[1:]]).transpose(1, 2, 0)
+        turn = np.exp(2j * np.pi * np.outer(steps[1:], bins) / self.block)             # omega^-j (D, bins)
+        np.multiply(edge[..., None], turn[:, None, None, :], out=running[1:])
+        for j in steps[1:]:                     # a loop over slabs: numpy's complex cumsum is 7x slower
+            running[j] += running[j - 1]
+        contiguous = d.size == steps.size and np.array_equal(d, steps)
+        spec = running if contiguous else running[d]
+        spec *= (np.exp(-2j * np.pi * np.outer(d, bins) / self.block) * self.scale)[:, None, None, :]
+        parts = np.concatenate([spec.real, spec[..., 1:].imag], axis=-1)
+        return parts.reshape((shifts.size,) + rest + (self.size,))
 
     @cached_property
     def frequencies(self) -> np.ndarray:
@@ -212,6 +257,48 @@ class Likelihood:
         r = self.residual(params)
         return float(-0.5 * np.sum(np.log(2 * np.pi * v) + r**2 / v))
 
+    def log_likelihoods(self, params: Sequence[dict], noises: Sequence[dict]) -> np.ndarray:
+        """:meth:`log_likelihood` at each of P (params, noise) pairs: (P,).
+
+        For linear models of force and release recordings the sets are evaluated together
+        (:meth:`BeamModel.simulate_batch`: one inverse FFT per batch; the force noise's latent
+        columns by :meth:`BandProjection.project_shifted` and their marginalisation by stacked
+        solves), in chunks of :attr:`batch_size`; otherwise set by set. An exception from any set
+        (a model that cannot be evaluated there) propagates: see :meth:`LogPosterior.terms_batch`.
+        """
+        if len(params) != len(noises):
+            raise ValueError(f"{len(params)} parameter sets but {len(noises)} noise sets")
+        if self.free_decay or not self.model.batches:
+            return np.array([self.log_likelihood(p, n) for p, n in zip(params, noises)], dtype=float)
+        v = np.stack([self.variance(n) for n in noises]) if len(noises) else np.empty((0,) + self.z_data.shape)
+        size = self.batch_size
+        return np.concatenate([self._batch(params[i:i + size], v[i:i + size])
+                               for i in range(0, len(params), size)] or [np.empty(0)])
+
+    @cached_property
+    def batch_size(self) -> int:
+        """Parameter sets per chunk of :meth:`log_likelihoods`: their spectra, signals and latent
+        columns take about 32 MB (a few sets for the full band of a 4 s record at 2048 Hz, dozens
+        at 150 Hz)."""
+        proj, c = self.projection, len(self.channels)
+        columns = 0 if self.force_noise is None else (self.force_noise.size + 1) * proj.n_blocks * proj.n_bins
+        per_set = 16 * c * (3 * columns + 4 * self.model.grid.n_fft)
+        return max(1, (1 << 25) // per_set)
+
+    def _batch(self, params: Sequence[dict], v: np.ndarray) -> np.ndarray:
+        """:meth:`log_likelihoods` of one chunk; ``v`` (P, D, c) the noise variances."""
+        proj = self.projection
+        if self.force_noise is None:
+            r = self.z_data - proj.project(self.model.simulate_batch(params)).transpose(1, 0, 2)
+            return -0.5 * np.sum(np.log(2 * np.pi * v) + r**2 / v, axis=(1, 2))
+        index = self.force_noise.index
+        first = proj.i0 - int(index.max())
+        lags = np.arange(first, proj.i0 + proj.n_blocks * proj.block - int(index.min()))
+        y, unit = self.model.simulate_with_impulse_batch(params, lags)
+        z = self.z_data - proj.project(y).transpose(1, 0, 2)                         # (P, D, c)
+        psi = proj.project_shifted(unit, first, index)                               # (J, P, c, D)
+        return _marginal_batch(z, psi, self.force_noise.variance, v)
+
     def pointwise(self, params: dict, noise: dict) -> np.ndarray:
         """Per-block log-likelihood terms, summed over channels: (n_blocks,).
 
@@ -278,6 +365,25 @@ class Likelihood:
     @cached_property
     def _data_rms(self) -> float:
         return float(np.sqrt(np.mean(self.z_data**2)))
+
+
+def _marginal_batch(z: np.ndarray, psi: np.ndarray, s2: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The log density of :func:`_marginal` at each of P sets: ``z`` (P, D, c), ``psi`` (J, P, c, D)
+    (the layout of :meth:`BandProjection.project_shifted`), ``s2`` (J,), ``v`` (P, D, c): (P,).
+
+    Stacked J x J Cholesky factors for the determinant, stacked LU solves for A^-1 b.
+    """
+    n_sets = z.shape[0]
+    w = 1.0 / np.sqrt(v)
+    y = (z * w).reshape(n_sets, -1)                                                  # (P, D c)
+    p = (psi.transpose(1, 0, 3, 2) * w[:, None]).reshape(n_sets, psi.shape[0], -1)  # (P, J, D c)
+    a = p @ p.transpose(0, 2, 1) + np.diag(1.0 / s2)
+    b = (p @ y[:, :, None])[:, :, 0]
+    chol = np.linalg.cholesky(a)
+    coef = np.linalg.solve(a, b[:, :, None])[:, :, 0]
+    logdet_a = 2 * np.sum(np.log(np.diagonal(chol, axis1=1, axis2=2)), axis=1)
+    return -0.5 * (y.shape[1] * np.log(2 * np.pi) + np.sum(np.log(v), axis=(1, 2)) + np.sum(np.log(s2))
+                   + logdet_a + np.sum(y * y, axis=1) - np.sum(b * coef, axis=1))
 
 
 def _marginal(z: np.ndarray, psi: np.ndarray, s2: np.ndarray, v: np.ndarray) -> tuple[float, np.ndarray]:

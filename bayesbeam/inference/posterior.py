@@ -7,10 +7,21 @@ values, an unstable model or a failed linear solve give -inf; nothing raises ins
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from bayesbeam.inference.likelihood import Likelihood
 from bayesbeam.inference.priors import Prior
+
+#: environment variable that, set to "0", makes the samplers evaluate parameter sets one at a
+#: time instead of in batches (:meth:`LogPosterior.terms_batch`): the benchmarks' baseline
+BATCH_VARIABLE = "BAYESBEAM_BATCH"
+
+
+def batching() -> bool:
+    """Whether the samplers evaluate their parameter sets in batches (see :data:`BATCH_VARIABLE`)."""
+    return os.environ.get(BATCH_VARIABLE, "1") != "0"
 
 
 class LogPosterior:
@@ -61,6 +72,35 @@ class LogPosterior:
 
     def __call__(self, theta) -> float:
         return float(sum(self.terms(theta)))
+
+    def terms_batch(self, thetas) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`terms` at each row of ``thetas`` (P, ndim): (log priors (P,), log likelihoods (P,)).
+
+        The likelihoods on the prior's support are evaluated together
+        (:meth:`Likelihood.log_likelihoods`). When that fails as a whole (some set's model cannot
+        be evaluated), the sets are evaluated one by one, so each gets the value :meth:`terms`
+        gives it.
+        """
+        thetas = np.atleast_2d(np.asarray(thetas, dtype=float))
+        log_prior = np.array([self.log_prior(t) for t in thetas], dtype=float)
+        supported = np.isfinite(log_prior)
+        log_prior[~supported] = -np.inf
+        log_lik = np.full(len(thetas), -np.inf)
+        if np.any(supported):
+            log_lik[supported] = self._log_likelihoods(thetas[supported])
+        return log_prior, log_lik
+
+    def log_prob_batch(self, thetas) -> np.ndarray:
+        """The log posterior at each row of ``thetas`` (P, ndim): (P,) (emcee's ``vectorize``)."""
+        return np.sum(self.terms_batch(thetas), axis=0)
+
+    def _log_likelihoods(self, thetas: np.ndarray) -> np.ndarray:
+        params, noises = zip(*(self.split(t) for t in thetas))
+        try:
+            values = self.likelihood.log_likelihoods(params, noises)
+        except (ValueError, np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+            return np.array([self.log_likelihood(t) for t in thetas])
+        return np.where(np.isfinite(values), values, -np.inf)
 
     def profiled(self, model_theta) -> float:
         """log posterior with each channel's noise sd at its conditional optimum (RMS residual).

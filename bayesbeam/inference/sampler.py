@@ -21,7 +21,9 @@ r"""From a robust optimum to converged emcee chains.
 Parallel evaluation goes through any object with a ``map`` (``multiprocessing.Pool``,
 ``concurrent.futures`` executors, ``mpi4py.futures.MPIPoolExecutor``, schwimmbad pools). The log
 posterior is sent to each worker once, by the pool's initializer, and evaluated there through the
-module-level :func:`worker_log_prob`: never pickled per call.
+module-level :func:`worker_log_prob`: never pickled per call. Without a pool, the walkers of each
+half-step are evaluated together (:meth:`LogPosterior.log_prob_batch`, emcee's ``vectorize``;
+``BAYESBEAM_BATCH=0`` evaluates them one by one).
 """
 from __future__ import annotations
 
@@ -33,7 +35,7 @@ import emcee
 import numpy as np
 from scipy import optimize
 
-from bayesbeam.inference.posterior import LogPosterior
+from bayesbeam.inference.posterior import LogPosterior, batching
 
 _WORKER_POSTERIOR: LogPosterior | None = None
 
@@ -269,8 +271,11 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
         backend = emcee.backends.HDFBackend(str(backend_path))
         if not resume:
             backend.reset(n_walkers, ndim)
-    fn = worker_log_prob if pool is not None else post
-    sampler = emcee.EnsembleSampler(n_walkers, ndim, fn, pool=pool, backend=backend)
+    # in one process the walkers of each half-step are evaluated together (emcee's vectorize); emcee
+    # draws the same random numbers either way, and the values equal one call per walker's to rounding
+    vectorize = pool is None and batching()
+    fn = worker_log_prob if pool is not None else post.log_prob_batch if vectorize else post
+    sampler = emcee.EnsembleSampler(n_walkers, ndim, fn, pool=pool, backend=backend, vectorize=vectorize)
     # emcee draws its moves from a copy of numpy's global state: seed it from rng instead
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
     state = None if (resume and backend is not None and backend.iteration > 0) else initial_ball(post, optimum, n_walkers, rng)

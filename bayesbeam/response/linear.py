@@ -186,8 +186,18 @@ def unit_sample_responses(grid: FrequencyGrid, spectrum: np.ndarray, index: np.n
     """
     x = fft.irfft(spectrum, grid.n_fft, axis=0)                       # (n_fft, n_out), windowed
     lag = np.arange(grid.n)[:, None] - np.asarray(index)[None, :]     # (n, K), from -max(index)
-    columns = x[lag % grid.n_fft] * np.exp(grid.sigma * grid.dt * lag)[:, :, None]
-    return columns.transpose(0, 2, 1)
+    return lagged_samples(grid, x, lag).transpose(0, 2, 1)
+
+
+def lagged_samples(grid: FrequencyGrid, x: np.ndarray, lags: np.ndarray) -> np.ndarray:
+    """Samples at integer ``lags`` (any shape; negative ones wrap to the buffer's end) of the
+    windowed inverse transform ``x`` (n_fft, ...), the window undone: (lags.shape + x.shape[1:]).
+
+    Valid for lags in (-(n_fft - n), n): see :func:`unit_sample_responses` for what the negative
+    lags hold.
+    """
+    factor = np.exp(grid.sigma * grid.dt * lags)
+    return x[lags % grid.n_fft] * factor.reshape(factor.shape + (1,) * (x.ndim - 1))
 
 
 def static_offset(system: SecondOrderSystem, rows: np.ndarray, orders, load: np.ndarray,

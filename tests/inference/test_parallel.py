@@ -15,6 +15,7 @@ import pytest
 
 from bayesbeam.inference import FitConfig, fit
 from bayesbeam.inference.fit import prepare
+from bayesbeam.inference.posterior import BATCH_VARIABLE
 from bayesbeam.inference.sampler import (
     find_optimum,
     local_pool,
@@ -49,6 +50,9 @@ def test_pool_ships_the_posterior_once_per_worker_and_changes_nothing(problem, t
             super().__init__(nwalkers, ndim, log_prob_fn, *args, **kwargs)
 
     monkeypatch.setattr(sampler_module.emcee, "EnsembleSampler", Recorder)
+    # the serial run calls the posterior once per walker, as each worker does: the chains are then
+    # bit-identical (the batched serial path agrees to rounding: tests/inference/test_batch.py)
+    monkeypatch.setenv(BATCH_VARIABLE, "0")
     prob, opt = problem
     log = tmp_path / "pickles.log"
     post = prob.posterior
