@@ -44,9 +44,9 @@ On step l the force is the cubic through nodes l-1 .. l+2; the modal state then 
 of the new nodes: implicit, fourth order for smooth forces (|v| v has a jump of its second
 derivative where v changes sign: third to fourth order observed). Blocks of up to 256 nodes
 (plus one of overlap, whose last step uses the quadratic through l-1 .. l+1) are solved together
-by fixed-point iteration to :data:`DRAG_RTOL`, with the block's linear recurrence as a parallel
-prefix scan; where the iteration contracts too slowly the block shrinks, down to one node with
-Newton's method, so any c_q is solved. Default U = 2 (:data:`SUBSTEPS`): on a hammer test of
+by fixed-point iteration to :data:`DRAG_RTOL`, the block's linear recurrence stepped node by node
+in compiled code (:mod:`bayesbeam.response._kernels`); where the iteration contracts too slowly
+the block shrinks, down to one node with Newton's method, so any c_q is solved. Default U = 2 (:data:`SUBSTEPS`): on a hammer test of
 the paper's beam 0.7% of the drag effect's RMS (fourth order: 0.05% at U = 4).
 
 Friction: exact stick-slip, events located inside the steps
@@ -92,6 +92,7 @@ from scipy import fft, linalg, special
 
 from bayesbeam.physics.effects.dry_friction import DryFriction
 from bayesbeam.physics.effects.quadratic_drag import QuadraticDrag
+from bayesbeam.response import _kernels
 from bayesbeam.response.linear import FrequencyGrid
 from bayesbeam.response.system import SecondOrderSystem
 
@@ -229,16 +230,6 @@ def _half_modes(lam: np.ndarray):
     return keep, np.where(real[keep], 1.0, 2.0)
 
 
-def _scan(w: np.ndarray, epow: np.ndarray) -> np.ndarray:
-    """x_1..x_L of x_{i+1} = E x_i + w_i, x_0 = 0 (rows of w), by a doubling prefix scan."""
-    y = w.copy()
-    d = 1
-    while d < y.shape[0]:
-        y[d:] += epow[d] * y[:-d]
-        d *= 2
-    return y
-
-
 @lru_cache(maxsize=8)
 def _plant_grid(n: int, dt: float) -> FrequencyGrid:
     """The plant's FFT grid, one per record length: its bins, window and passband are computed once."""
@@ -347,6 +338,15 @@ class _Plant:
         w = np.sinc(u) * special.i0(_SINC_BETA * np.sqrt(np.maximum(1 - (u / _SINC_HALF) ** 2, 0)))
         return (w / _I0_BETA) @ values[k0:k0 + 2 * _SINC_HALF]
 
+    def at_time(self, spectrum: np.ndarray, t: float) -> np.ndarray:
+        """Row at time t of a signal given on the grid's bins (n_bins, ch): the band-limited
+        interpolant that :meth:`fine` and :meth:`coarse` sample, summed directly (exact; one
+        product over the bins, cheaper than a table for a signal read at a few times)."""
+        grid = self.grid
+        phase = np.exp(2j * np.pi * grid.freq * t)
+        phase[0] *= 0.5
+        return (2.0 / grid.n_fft * np.exp(grid.sigma * t)) * (phase @ spectrum).real
+
     def linear_spectrum(self, C: np.ndarray, order: int = 0) -> np.ndarray:
         """Spectrum of C w^(order) of the linear response to the input, (n_bins, n_rows)."""
         h = self.system.transfer(self.s_in, C, self.b[:, None])[:, :, 0]
@@ -431,75 +431,39 @@ def _compose(coef: np.ndarray, offset: float) -> np.ndarray:
 _SHIFTED = [np.array([_compose(_LAGRANGE[j], off) for j in range(6)]) for off in range(6)]
 
 
-def _step_poly(column: np.ndarray, k: int) -> list:
+def _step_poly(column: np.ndarray, k: int) -> np.ndarray:
     """Interpolant of a node signal on step k as coefficients in powers of theta (ascending)."""
     base = min(max(k - 2, 0), column.shape[0] - 6)
-    return (column[base:base + 6] @ _SHIFTED[k - base]).tolist()
+    return column[base:base + 6] @ _SHIFTED[k - base]
 
 
-def _horner(c: list, t: float) -> tuple[float, float]:
-    """Value and derivative of the polynomial c (ascending) at t."""
-    v, d = 0.0, 0.0
-    for a in reversed(c):
-        d = d * t + v
-        v = v * t + a
-    return v, d
+_NO_POLY = np.zeros(0)
 
 
 class _IntraStep:
     """theta -> sign (Re sum_j amp_j e^{mu_j (theta - a)} + const + poly(theta)) and d/dtheta.
 
     The exact free-part solution inside a step (``mu`` = lambda h) plus the interpolated linear
-    signal ``poly`` (ascending coefficients, or None); used for locating events.
+    signal ``poly`` (ascending coefficients, or None); used for locating events. Evaluated, and
+    its root found, in compiled code (:func:`_kernels.intra_step`, :func:`_kernels.intra_step_root`).
     """
 
     def __init__(self, mu, amp, const, poly, a, sign):
-        self.mu, self.amp, self.amp_d = mu, amp, amp * mu
-        # Python floats: the root search's scalar arithmetic is several times slower on numpy scalars
-        self.const, self.poly, self.a, self.sign = float(const), poly, a, float(sign)
+        self.args = (mu, amp, amp * mu, float(const), _NO_POLY if poly is None else poly, float(a), float(sign))
 
     def __call__(self, theta: float) -> tuple[float, float]:
-        ex = np.exp(self.mu * (theta - self.a))
-        v = float((ex @ self.amp).real) + self.const
-        d = float((ex @ self.amp_d).real)
-        if self.poly is not None:
-            pv, pd = _horner(self.poly, theta)
-            v, d = v + pv, d + pd
-        return self.sign * v, self.sign * d
+        return _kernels.intra_step(*self.args, float(theta))
 
-
-def _newton_root(f, lo: float, hi: float, f_lo: float, f_hi: float, tol: float = 1e-9) -> float:
-    """Root of f in [lo, hi] with f(lo) > 0 >= f(hi); f returns (value, derivative).
-
-    Newton's method from the false-position point; a step that leaves the bracket is replaced
-    by an Illinois false-position step, so the bracket always shrinks.
-    """
-    lo, hi, f_lo, f_hi = float(lo), float(hi), float(f_lo), float(f_hi)
-    t = lo + (hi - lo) * f_lo / (f_lo - f_hi)
-    side = 0
-    for _ in range(100):
-        v, d = f(t)
-        if v > 0:
-            lo, f_lo = t, v
-            if side == 1:
-                f_hi *= 0.5
-            side = 1
-        else:
-            hi, f_hi = t, v
-            if side == -1:
-                f_lo *= 0.5
-            side = -1
-        new = t - v / d if d != 0 else lo
-        if not lo < new < hi:
-            new = lo + (hi - lo) * f_lo / (f_lo - f_hi)
-        if abs(new - t) <= tol or hi - lo <= tol:
-            return new
-        t = new
-    return t
+    def root(self, lo: float, hi: float, f_lo: float, f_hi: float, tol: float = 1e-9) -> float:
+        """Root in [lo, hi] given f(lo) = f_lo > 0 >= f(hi) = f_hi (:func:`_kernels.intra_step_root`)."""
+        return _kernels.intra_step_root(*self.args, float(lo), float(hi), float(f_lo), float(f_hi), tol)
 
 
 #: most events handled inside one fine step before the step is finished without further checks
 _MAX_EVENTS_PER_STEP = 32
+#: reads of the held-minus-free forced response summed from its spectrum (about 0.1 ms each)
+#: before it is tabulated by one inverse FFT (:meth:`_Plant.coarse`, the cost of about 50 reads) and interpolated
+_DIRECT_READS = 16
 
 
 def _moment_weights() -> np.ndarray:
@@ -567,7 +531,7 @@ class _Friction:
     def _linear_signals(self):
         """Tip velocity, acceleration and held-tip force of the forced responses, at the nodes."""
         p, e, n = self.p, self.e, self.p.n
-        self._diff = None
+        self._diff, self._diff_reads = None, 0
         if not p.forced:
             self.lin = None
             self._diff_spec = None
@@ -610,9 +574,14 @@ class _Friction:
         n = self.p.n
         if self._diff_spec is None:
             return np.zeros(n), np.zeros(n)
-        if self._diff is None:                      # tabulated at dt/2 at first use
-            self._diff = self.p.coarse(self._diff_spec)
-        x = self.p.at(self._diff, self.p.t_start + (k + theta) * self.p.h)
+        t = self.p.t_start + (k + theta) * self.p.h
+        if self._diff_reads < _DIRECT_READS:        # a few reads: summed from the spectrum
+            self._diff_reads += 1
+            x = self.p.at_time(self._diff_spec, t)
+        else:                                       # many: tabulated at dt/2 once
+            if self._diff is None:
+                self._diff = self.p.coarse(self._diff_spec)
+            x = self.p.at(self._diff, t)
         return x[:n], x[n:]
 
     # ------------------------------------------------------------------ state conversions
@@ -672,7 +641,7 @@ class _Friction:
                             lo, f_lo = t, ft
                             break
                         hi, f_hi = t, ft
-                theta = hi if lo is None else _newton_root(f, lo, hi, f_lo, f_hi)
+                theta = hi if lo is None else f.root(lo, hi, f_lo, f_hi)
                 ez = np.exp(self.lam_h * (theta - a))
                 z = ez * z + gam * (ez - 1) * self.beta_lam
                 acc(k, a, theta, gam, gam)
@@ -704,7 +673,7 @@ class _Friction:
                 f = _IntraStep(self.lr_h, self.cg * y, self.k_tip * u_s - side * F,
                                None if lin_none else _step_poly(self.lin[:, 2], k), a, -side)
                 f_a = F - side * g_a
-                theta = a if f_a <= 0 else _newton_root(f, a, 1.0, f_a, F - side * g_b)
+                theta = a if f_a <= 0 else f.root(a, 1.0, f_a, F - side * g_b)
                 y = np.exp(self.lr_h * (theta - a)) * y
                 acc(k, a, theta, g_a, side * F)
                 st["z"] = self._to_free(k, theta, y, u_s)
@@ -883,32 +852,25 @@ class _Drag:
         resolved = np.abs(lam * h) <= _RESOLVED
         linear = [h * w for w in hold_weights(lam * h, (0.0, 1.0))]
         zero = np.zeros_like(lam)
-        self.cubic = [np.where(resolved, h * w, lw) for w, lw in
-                      zip(hold_weights(lam * h, _CUBIC_NODES), [zero] + linear + [zero])]
-        self.quad = [np.where(resolved, h * w, lw) for w, lw in
-                     zip(hold_weights(lam * h, _QUADRATIC_NODES), [zero] + linear)]
-        self.epow = np.exp(np.multiply.outer(np.arange(_DRAG_BLOCK + 2), lam * h))
-        # the block recurrence as a cumulative sum, z_i = E^i sum_{l<i} E^-(l+1) w_l, where the
-        # growth of E^-l over a block stays below e^10 (rounding ~1e-11); a prefix scan elsewhere
-        self.cumsum = np.abs(lam.real * h) * (_DRAG_BLOCK + 2) <= 10.0
-        self.scan_modes = np.flatnonzero(~self.cumsum)
-        # (the scanned modes' columns are zero, and not exp(+large) * 0 = nan)
-        self.einv = np.exp(-np.multiply.outer(np.arange(1, _DRAG_BLOCK + 2), np.where(self.cumsum, lam * h, 0.0)))
-        self.einv *= self.cumsum
+        self.cubic = np.array([np.where(resolved, h * w, lw) for w, lw in
+                               zip(hold_weights(lam * h, _CUBIC_NODES), [zero] + linear + [zero])])
+        self.quad = np.array([np.where(resolved, h * w, lw) for w, lw in
+                              zip(hold_weights(lam * h, _QUADRATIC_NODES), [zero] + linear)])
+        self.E = np.exp(lam * h)
         # the linear response's velocities at the Gauss points and nodes
         self.vlin = p.fine(p.linear_spectrum(np.eye(n), order=1)) @ rows.T if p.forced else None
 
-    def _inputs(self, u_all: np.ndarray, S: int) -> np.ndarray:
-        """Modal inputs of the S steps from the modal forces at nodes k-1 .. k+S (S+2 rows)."""
-        c, q = self.cubic, self.quad
-        w = np.empty((S, self.m), dtype=complex)
-        if S > 1:                                   # in place: this runs once per sweep
-            head = np.multiply(c[0], u_all[0:S - 1], out=w[: S - 1])
-            tap = np.empty_like(head)
-            for j in (1, 2, 3):
-                head += np.multiply(c[j], u_all[j:S - 1 + j], out=tap)
-        w[S - 1] = q[0] * u_all[S - 1] + q[1] * u_all[S] + q[2] * u_all[S + 1]
-        return w
+    def _states(self, z0: np.ndarray, u: np.ndarray, k: int):
+        """States at nodes k+1 .. k+S (S, m) from ``z0`` at node k, and their Gauss-point velocities.
+
+        ``u`` (S + 2, m): the modal forces at nodes k-1 .. k+S (:func:`_kernels.drag_states`).
+        """
+        z = np.empty((u.shape[0] - 2, self.m), dtype=complex)
+        _kernels.drag_states(z0, u, self.cubic, self.quad, self.E, z)
+        v = z.view(float) @ self.C_T
+        if self.vlin is not None:
+            v += self.vlin[k + 1:k + z.shape[0] + 1]
+        return z, v
 
     def run(self) -> np.ndarray:
         p = self.p
@@ -926,19 +888,14 @@ class _Drag:
         while k < last:
             L = min(block, last - k)
             S = L + 1 if k + L < last else L                # one node of overlap when possible
-            z_free = self.epow[1:S + 1] * z
-            v_free = self._velocity(z_free)
-            if self.vlin is not None:
-                v_free += self.vlin[k + 1:k + S + 1]
-            g = self.law(v_free)
-            u = np.empty((S + 2, self.m), dtype=complex)   # modal forces at nodes k-1 .. k+S
+            u = np.zeros((S + 2, self.m), dtype=complex)   # modal forces at nodes k-1 .. k+S
             u[:2] = self._modal_input(g_nodes[k:k + 2])
+            # first guess: the block's own forces zero
+            g = self.law(self._states(z, u, k)[1])
             prev, ok = np.inf, False
             for _ in range(60):
                 np.matmul(g, self.beta_T, out=u.view(float)[2:])
-                z_forced = self._propagate(self._inputs(u, S))
-                v = self._velocity(z_forced)
-                v += v_free
+                states, v = self._states(z, u, k)
                 g_new = self.law(v)
                 delta = _max_abs_difference(g_new, g)
                 self.iterations += 1
@@ -952,52 +909,42 @@ class _Drag:
                 if L > 1:
                     block = max(1, L // 4)
                     continue
-                g, z_forced, v = self._newton(g_nodes[k:k + 2], v_free, g_new, S)
+                g, states, v = self._newton(z, g_nodes[k:k + 2], k, g_new, S)
                 self.newton_blocks += 1
             g_nodes[k + 2:k + L + 2] = g[:L]
             if self.keep:
                 v_nodes[k + 1:k + L + 1] = v[:L]
-            z = z_free[L - 1] + z_forced[L - 1]
+            z = states[L - 1]
             k += L
             block = min(2 * block, _DRAG_BLOCK) if ok else block
         self.final_state = (p.V[:, self.modes] @ (z * self.twice)).real
         self.record = {"v_gauss": v_nodes, "g_gauss": g_nodes[1:]} if self.keep else {}
         return (g_nodes[1:] * self.weights) @ self.rows
 
-    def _propagate(self, w: np.ndarray) -> np.ndarray:
-        """States z_1..z_S of z_{i+1} = E z_i + w_i from z_0 = 0 (rows of w)."""
-        S = w.shape[0]
-        z = self.epow[1:S + 1] * np.cumsum(w * self.einv[:S], axis=0)
-        if self.scan_modes.size:
-            z[:, self.scan_modes] = _scan(w[:, self.scan_modes], self.epow[:, self.scan_modes])
-        return z
-
-    def _velocity(self, z: np.ndarray) -> np.ndarray:
-        """Gauss-point velocities Re(C z) for modal states z (L, m)."""
-        return np.ascontiguousarray(z).view(float) @ self.C_T
-
     def _modal_input(self, g: np.ndarray) -> np.ndarray:
         """Modal inputs beta g for Gauss forces g (L, n_q)."""
         return (g @ self.beta_T).view(complex)
 
-    def _newton(self, g_known, v_free, g_guess, S):
-        """The S (<= 2) nodes of a one-step block by Newton's method in the Gauss forces.
+    def _newton(self, z0, g_known, k, g_guess, S):
+        """The S (<= 2) nodes of a one-step block from state ``z0`` at node k by Newton's method
+        in the Gauss forces.
 
         v = v_c + R g is affine in the unknown forces g (S n_q); R is built column block by
         column block from the step weights.
         """
         n_q, m = self.rows.shape[0], self.m
-        zero = np.zeros((S, n_q))
-        base = self._inputs(np.vstack([self._modal_input(g_known), self._modal_input(zero)]), S)
-        v_c = v_free + self._velocity(_scan(base, self.epow))
+        u = np.zeros((S + 2, m), dtype=complex)
+        u[:2] = self._modal_input(g_known)
+        v_c = self._states(z0, u, k)[1]
         R = np.zeros((S * n_q, S * n_q))
+        rest = np.zeros(m, dtype=complex)
         for i in range(S):                                  # response to unit forces at node k+1+i
-            coef = np.zeros((S + 2, m), dtype=complex)
-            coef[i + 2] = 1.0
-            steps = self._inputs(coef, S)                   # (S, m) per unit modal input
-            for j in range(S):                              # state at node k+1+j
-                t = sum(self.epow[j - l] * steps[l] for l in range(j + 1))
-                R[j * n_q:(j + 1) * n_q, i * n_q:(i + 1) * n_q] = ((self.C * t) @ self.beta).real
+            unit = np.zeros((S + 2, m), dtype=complex)
+            unit[i + 2] = 1.0
+            t = np.empty((S, m), dtype=complex)             # states at nodes k+1 .. k+S per unit modal input
+            _kernels.drag_states(rest, unit, self.cubic, self.quad, self.E, t)
+            for j in range(S):
+                R[j * n_q:(j + 1) * n_q, i * n_q:(i + 1) * n_q] = ((self.C * t[j]) @ self.beta).real
         g = g_guess.ravel().copy()
         for _ in range(50):
             v = v_c.ravel() + R @ g
@@ -1010,9 +957,9 @@ class _Drag:
         else:
             raise RuntimeError("drag: Newton's method did not converge in one step")
         g = g.reshape(S, n_q)
-        w = self._inputs(np.vstack([self._modal_input(g_known), self._modal_input(g)]), S)
-        z_forced = _scan(w, self.epow)
-        return g, z_forced, (v_c.ravel() + R @ g.ravel()).reshape(S, n_q)
+        u[2:] = self._modal_input(g)
+        states, v = self._states(z0, u, k)
+        return g, states, v
 
 
 _STEP_MOMENTS = _moment_weights()
