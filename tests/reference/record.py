@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import asdict, dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import numpy as np
 from bayesbeam.io import Beam, Excitation, Recording, Sensor, TipBody, write_recording
 from bayesbeam.io.atomic import write_text
 
-from . import integrate
+from . import friction, integrate
 from .augmented import relaxation_blocks
 from .daq import AntiAlias
 from .relaxation import RELAXATION_KEYS
@@ -93,11 +94,19 @@ def _simulate(case: BeamCase, excitation, fs: float, n: int, numerics: Numerics)
     # a delay tau: the response channels read y(t - tau), i.e. the same exact simulation on the grid
     # shifted by -tau (the force is analytic, the beam at rest or in equilibrium before it): no interpolation
     shifted = fine - case.effects.get("tau", 0.0)
+    step = _stepper(case, numerics)
     if isinstance(excitation, Hammer):
         f, df = excitation.force(shifted)
-        responses = integrate.step(blocks, h, np.zeros(blocks.B.shape), f, df)
+        responses = step(blocks, h, np.zeros(blocks.B.shape), f, df)
         return daq.sample(excitation.force(fine)[0], n), daq.sample(responses, n)
-    return None, daq.sample(_release(blocks, excitation.tip_load, shifted, h), n)
+    return None, daq.sample(_release(blocks, excitation.tip_load, shifted, h, step), n)
+
+
+def _stepper(case: BeamCase, numerics: Numerics):
+    """The time stepping: exact for the linear beam, with tip friction that of :mod:`.friction`."""
+    if "F_c" not in case.effects:
+        return integrate.step
+    return partial(friction.step, friction.TipFriction.of(case, numerics.n_elements))
 
 
 def _blocks(case: BeamCase, excitation, fs: float, numerics: Numerics):
@@ -111,7 +120,7 @@ def _blocks(case: BeamCase, excitation, fs: float, numerics: Numerics):
     return modal_blocks(case, mats, load_at, omega_cut, numerics.du)
 
 
-def _release(blocks, tip_load: float, times: np.ndarray, h: float) -> np.ndarray:
+def _release(blocks, tip_load: float, times: np.ndarray, h: float, step=integrate.step) -> np.ndarray:
     """Outputs at ``times``: at rest under the load before t = 0, free afterwards."""
     rest = blocks.equilibrium(tip_load)
     before = int(np.sum(times < 0))
@@ -119,13 +128,14 @@ def _release(blocks, tip_load: float, times: np.ndarray, h: float) -> np.ndarray
     out[:before] = np.einsum("bos,bs->o", blocks.C, rest) + blocks.F * tip_load
     start = integrate.propagate(blocks, rest, times[before])
     zeros = np.zeros(times.size - before)
-    out[before:] = integrate.step(blocks, h, start, zeros, zeros)
+    out[before:] = step(blocks, h, start, zeros, zeros)
     return out
 
 
 MECHANISM_KEYS = {"air": ("gamma",), "strain_rate": ("cdI",), "time_hysteresis": ("alpha", "beta"),
                   "spatial_hysteresis": ("a", "b"), **RELAXATION_KEYS}
-EFFECT_NAMES = {"k_theta": "root_compliance", "c_theta": "root_damping", "m_s": "sensor_mass", "P": "axial_load", "tau": "measurement_delay"}
+EFFECT_NAMES = {"k_theta": "root_compliance", "c_theta": "root_damping", "m_s": "sensor_mass", "P": "axial_load",
+                "tau": "measurement_delay", "F_c": "dry_friction"}
 TIP_ACCELEROMETER = "accel_tip"
 NOTES = {"simulator": "tests.reference: Hermite cubic finite elements, exact exponential stepping",
          "daq": "every channel passes one zero-phase Kaiser-windowed-sinc low-pass (flat to 1e-5 below 0.40 fs, "
@@ -142,7 +152,8 @@ def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float,
     EI: the true bending stiffness (N m^2), default ``beam.nominal_EI``; tip: default none;
     damping: the paper's parameters (gamma, cdI, alpha, beta, a, b; SI units) or the literature's
     (c_e, mu; c_f, nu; Delta, tau_T: :mod:`tests.reference.relaxation`);
-    effects: k_theta (N m/rad), c_theta (N m s/rad), m_s (kg, at the first sensor), P (N), tau (s);
+    effects: k_theta (N m/rad), c_theta (N m s/rad), m_s (kg, at the first sensor), P (N), tau (s),
+    F_c (N, Coulomb friction at the tip; memory-free damping only);
     material: a ``[material]`` table written to beam.toml as given (docs/format.md);
     excitation: :class:`Hammer` (force channel "force") or :class:`Release` (no force channel);
     sensors: default a tip accelerometer; noise: :class:`Noise`, drawn from ``seed``.

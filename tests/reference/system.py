@@ -32,7 +32,7 @@ from .memory import SumOfExponentials
 from .relaxation import RELAXATION_KEYS
 
 DAMPING_KEYS = ("gamma", "cdI", "alpha", "beta", "r", "a", "b", *(k for keys in RELAXATION_KEYS.values() for k in keys))
-EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "P", "tau")
+EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "P", "tau", "F_c")
 #: parameters that come in pairs
 PAIRS = (("alpha", "beta"), ("a", "b"), *RELAXATION_KEYS.values())
 ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
@@ -47,7 +47,7 @@ class BeamCase:
     (:mod:`tests.reference.relaxation`: c_e N m^2 s and mu 1/s, c_f N m^2 s^nu and nu, Delta and
     tau_T s); ``effects``: k_theta (N m/rad, root spring), c_theta (N m s/rad, a root dashpot beside
     it), m_s (kg, point mass at the first sensor), P (N, axial load, tension positive), tau (s,
-    delay of the response channels). ``sensors``: (location m, quantity).
+    delay of the response channels), F_c (N, Coulomb friction at the tip: :mod:`tests.reference.friction`). ``sensors``: (location m, quantity).
     """
 
     length: float
