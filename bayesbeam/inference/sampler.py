@@ -21,9 +21,10 @@ r"""From a robust optimum to converged emcee chains.
 Parallel evaluation goes through any object with a ``map`` (``multiprocessing.Pool``,
 ``concurrent.futures`` executors, ``mpi4py.futures.MPIPoolExecutor``, schwimmbad pools). The log
 posterior is sent to each worker once, by the pool's initializer, and evaluated there through the
-module-level :func:`worker_log_prob`: never pickled per call. Without a pool, the walkers of each
-half-step are evaluated together (:meth:`LogPosterior.log_prob_batch`, emcee's ``vectorize``;
-``BAYESBEAM_BATCH=0`` evaluates them one by one).
+module-level :func:`worker_log_prob`: never pickled per call. The walkers of each half-step are
+evaluated together (:meth:`LogPosterior.log_prob_batch`, emcee's ``vectorize``): in this process,
+or split into one chunk per worker of a ``multiprocessing`` pool or ``concurrent.futures``
+executor (:class:`PooledBatch`); ``BAYESBEAM_BATCH=0`` evaluates them one by one.
 """
 from __future__ import annotations
 
@@ -49,6 +50,29 @@ def init_worker(posterior: LogPosterior) -> None:
 def worker_log_prob(theta) -> float:
     """Evaluate the worker's log posterior (set by :func:`init_worker`)."""
     return _WORKER_POSTERIOR(theta)
+
+
+def worker_log_prob_batch(thetas) -> np.ndarray:
+    """The worker's log posterior at each row of ``thetas``, evaluated together."""
+    return _WORKER_POSTERIOR.log_prob_batch(thetas)
+
+
+class PooledBatch:
+    """emcee's vectorized log probability over a pool: the walkers split into one chunk per worker,
+    each evaluated together in its worker (:func:`worker_log_prob_batch`)."""
+
+    def __init__(self, pool, workers: int):
+        self.pool, self.workers = pool, workers
+
+    def __call__(self, thetas) -> np.ndarray:
+        chunks = [c for c in np.array_split(np.asarray(thetas), self.workers) if len(c)]
+        return np.concatenate(list(self.pool.map(worker_log_prob_batch, chunks)))
+
+
+def pool_workers(pool) -> int | None:
+    """Workers of a ``multiprocessing`` pool or a ``concurrent.futures`` executor; None for a pool
+    that does not say (its walkers are then sent one by one)."""
+    return getattr(pool, "_processes", None) or getattr(pool, "_max_workers", None)
 
 
 def worker_terms(theta) -> tuple[float, float]:
@@ -271,10 +295,15 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
         backend = emcee.backends.HDFBackend(str(backend_path))
         if not resume:
             backend.reset(n_walkers, ndim)
-    # in one process the walkers of each half-step are evaluated together (emcee's vectorize); emcee
-    # draws the same random numbers either way, and the values equal one call per walker's to rounding
-    vectorize = pool is None and batching()
-    fn = worker_log_prob if pool is not None else post.log_prob_batch if vectorize else post
+    # the walkers of each half-step are evaluated together (emcee's vectorize), in this process or in
+    # one chunk per worker; emcee draws the same random numbers either way, and the values equal one
+    # call per walker's to rounding
+    workers = None if pool is None else pool_workers(pool)
+    vectorize = batching() and (pool is None or workers is not None)
+    if vectorize:
+        fn, pool = (post.log_prob_batch if pool is None else PooledBatch(pool, workers)), None
+    else:
+        fn = worker_log_prob if pool is not None else post
     sampler = emcee.EnsembleSampler(n_walkers, ndim, fn, pool=pool, backend=backend, vectorize=vectorize)
     # emcee draws its moves from a copy of numpy's global state: seed it from rng instead
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()

@@ -180,3 +180,35 @@ def test_smc_with_batched_particles_gives_the_run_of_one_call_per_particle(q1_po
     assert len(runs["1"].betas) == len(runs["0"].betas)
     assert runs["1"].log_z == pytest.approx(runs["0"].log_z, rel=1e-9)
     np.testing.assert_allclose(runs["1"].particles, runs["0"].particles, rtol=1e-9)
+
+
+class _InProcessPool:
+    """A pool whose three 'workers' are this process (its map is the builtin one)."""
+
+    _processes = 3
+
+    def __init__(self):
+        self.chunks = []
+
+    def map(self, fn, items):
+        items = list(items)
+        self.chunks.append([len(x) for x in items])
+        return list(map(fn, items))
+
+
+def test_emcee_over_a_pool_evaluates_one_chunk_per_worker(q1_posterior, monkeypatch):
+    """With a pool that states its workers, the starting ensemble (12 walkers) goes out as 3 chunks
+    of 4 and each half-ensemble as 3 chunks of 2, each evaluated together by the worker's posterior
+    (here this process's, as init_worker leaves it); the chain equals one call per walker in this
+    process to 1e-12 (rounding)."""
+    from bayesbeam.inference import sampler as sampler_module
+
+    post, theta, cov = q1_posterior
+    optimum = Optimum(theta, post(theta), cov, 0)
+    monkeypatch.setattr(sampler_module, "_WORKER_POSTERIOR", post)
+    pool = _InProcessPool()
+    pooled = run_emcee(post, optimum, np.random.default_rng(8), n_walkers=12, max_steps=30, chunk=30, pool=pool)
+    assert pool.chunks == [[4, 4, 4]] + [[2, 2, 2]] * 60
+    monkeypatch.setenv(BATCH_VARIABLE, "0")
+    single = run_emcee(post, optimum, np.random.default_rng(8), n_walkers=12, max_steps=30, chunk=30)
+    np.testing.assert_allclose(pooled.samples, single.samples, rtol=1e-12, atol=0)
