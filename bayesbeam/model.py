@@ -6,14 +6,14 @@
 >>> y = model.simulate({"EI": 44.0, "gamma": 0.09, "a": 1e-3, "b": 0.06})   # (n_samples, n_sensors)
 
 Parameters use the paper's names in SI units: EI (N m^2) and those of each mechanism
-(gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, r s, a N s, b m). A sensor whose
-location beam.toml states with a tolerance adds its offset dx_<sensor> (m) to every model
-(:meth:`BeamModel.placement`).
+(gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, r s, a N s, b m). A free length that
+beam.toml states with a tolerance adds l (m, :meth:`BeamModel.operators`), a sensor location
+stated with a tolerance the sensor's offset dx_<sensor> (m, :meth:`BeamModel.placement`), to
+every model.
 """
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
 from functools import cached_property
 
 import numpy as np
@@ -44,8 +44,11 @@ PARAMETER_UNITS = {"EI": "N m^2"}
 #: the name of the fitted offset of sensor <s> from its stated location (m), a parameter of every
 #: model when beam.toml states the sensor's ``location_tolerance`` (see :meth:`BeamModel.placement`)
 SENSOR_OFFSET = "dx_{}"
+#: the name of the fitted free length (m), a parameter of every model when beam.toml states
+#: ``[beam] length_tolerance`` (see :meth:`BeamModel.operators`)
+LENGTH = "l"
 #: the set-up's fitted tolerances as ``bayesbeam models`` lists them, with their units
-SETUP_PARAMETER_UNITS = {SENSOR_OFFSET.format("<s>"): "m"}
+SETUP_PARAMETER_UNITS = {LENGTH: "m", SENSOR_OFFSET.format("<s>"): "m"}
 #: reference beams whose modes a model keeps (see :meth:`BeamModel._reference`): a sampler's
 #: cloud spans a few grid points, an optimiser's path some more; 32 at N = 48 hold 2.5 MB
 REFERENCES_KEPT = 32
@@ -169,6 +172,8 @@ class BeamModel:
                            exc.location if exc.kind == "force" else None)
         self.rows = self.ops.rows([s.location for s in recording.sensors])
         self.offsets = _fitted_offsets(recording)
+        self.fits_length = recording.setup.length_tolerance > 0
+        self._stretched: tuple[float, BeamOperators] | None = None    # the last length's operators
         self.orders = np.array([ORDERS[s.quantity] for s in recording.sensors])
         _check_nonlinear(self)
         self.grid = FrequencyGrid(recording.n_samples, recording.dt)
@@ -195,11 +200,12 @@ class BeamModel:
     @cached_property
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the free parameters, in order: EI, each mechanism's, each effect's, then the
-        offset ``dx_<s>`` of each sensor whose location beam.toml states with a tolerance."""
+        free length ``l`` when beam.toml states its tolerance, and the offset ``dx_<s>`` of each
+        sensor whose location it states with a tolerance."""
         names = ["EI"]
         for c in self.components:
             names += [p for p in c.parameters if p not in c.defaults]
-        return tuple(names) + tuple(self.offsets)
+        return tuple(names) + ((LENGTH,) if self.fits_length else ()) + tuple(self.offsets)
 
     @cached_property
     def units(self) -> dict[str, str]:
@@ -207,6 +213,8 @@ class BeamModel:
         for c in self.components:
             out.update(c.units)
         out.update(dict.fromkeys(self.offsets, "m"))
+        if self.fits_length:
+            out[LENGTH] = "m"
         return out
 
     def values(self, params: Mapping[str, float] | Sequence[float]) -> dict[str, float]:
@@ -231,38 +239,82 @@ class BeamModel:
             c.check(out)
         if not (np.isfinite(out["EI"]) and out["EI"] > 0):
             raise ValueError(f"EI = {out['EI']!r} N m^2 is not physical (must be finite and > 0)")
-        self._check_offsets(out)
+        self._check_positions(out)
         return out
 
-    def _check_offsets(self, v: dict[str, float]) -> None:
-        """ValueError when a fitted sensor offset puts its sensor off the beam."""
-        length = self.ops.length
-        for name, index in self.offsets.items():
-            x = self.setup.sensor_locations[index] + v[name]
+    def _check_positions(self, v: dict[str, float]) -> None:
+        """ValueError when the fitted length or a fitted sensor offset puts a sensor or the
+        hammer off the beam."""
+        if not (self.offsets or self.fits_length):
+            return
+        if self.fits_length and not (np.isfinite(v[LENGTH]) and v[LENGTH] > 0):
+            raise ValueError(f"{LENGTH} = {v[LENGTH]!r} m is not physical (must be finite and > 0)")
+        length, setup = self._length(v), self._setup_at(v)
+        placed = [(f"sensor {s.name!r}", x) for s, x in zip(self.recording.sensors, setup.sensor_locations)]
+        if setup.force_location is not None:
+            placed.append(("the hammer", setup.force_location))
+        fitted = ", ".join(f"{n} = {v[n]!r} m" for n in ([LENGTH] if self.fits_length else []) + list(self.offsets))
+        for what, x in placed:
             if not (np.isfinite(x) and 0.0 <= x <= length):
-                raise ValueError(f"{name} = {v[name]!r} m puts sensor {self.recording.sensors[index].name!r} "
-                                 f"at {x!r} m, off the beam [0, {length}] m")
+                raise ValueError(f"{fitted} put {what} at {x!r} m, off the beam [0, {length!r}] m")
+
+    def _length(self, v: dict[str, float]) -> float:
+        """The free length at these values (m): the fitted ``l``, else the stated one."""
+        return v[LENGTH] if self.fits_length else self.ops.length
+
+    def operators(self, v: dict[str, float]) -> BeamOperators:
+        """The Galerkin forms of the beam at values checked by :meth:`values`: the model's own
+        (:attr:`ops`) at the stated length, else those of the free length ``l``
+        (:meth:`BeamOperators.at_length`: the same grid N stretched to l, exact scaling).
+
+        ``l`` is nearly degenerate with EI: without a tip body the frequencies are
+        (beta_m l)^2 sqrt(EI / (rho_a l^4)) / (2 pi), so only EI / l^4 is seen, apart from where
+        the sensors and the hammer sit and the tip body's share; its prior (the stated tolerance)
+        carries it.
+        """
+        if not self.fits_length:
+            return self.ops
+        length = v[LENGTH]
+        if self._stretched is None or self._stretched[0] != length:
+            self._stretched = (length, self.ops.at_length(length))
+        return self._stretched[1]
 
     def placement(self, v: dict[str, float]) -> tuple[np.ndarray, Setup]:
         """(point rows of the sensors, the :class:`Setup` the effects see) at values checked by
         :meth:`values`: the sensors sit at their stated locations plus the fitted offsets
         ``dx_<s>``, and an effect placed at a sensor (the sensor's own mass) moves with it.
 
-        Without fitted offsets both are the model's own, built once (:attr:`rows`, :attr:`setup`).
+        With a fitted free length l, the clamp is taken to grip an uncertain length of the bar:
+        every sensor and the hammer keep their stated distance from the free end (each moves by
+        l - l_stated from the clamp), so a sensor stated at the tip stays at the tip.
+
+        Without fitted offsets or length both are the model's own, built once (:attr:`rows`,
+        :attr:`setup`).
         """
-        if not self.offsets:
+        if not (self.offsets or self.fits_length):
             return self.rows, self.setup
         setup = self._setup_at(v)
-        return self.ops.rows(setup.sensor_locations), setup
+        return self.operators(v).rows(setup.sensor_locations), setup
 
     def _setup_at(self, v: dict[str, float]) -> Setup:
         """The :class:`Setup` of :meth:`placement` alone (no rows evaluated)."""
-        if not self.offsets:
+        if not (self.offsets or self.fits_length):
             return self.setup
-        locations = list(self.setup.sensor_locations)
+        shift = self._length(v) - self.ops.length
+        locations = [x + shift for x in self.setup.sensor_locations]
         for name, index in self.offsets.items():
             locations[index] += v[name]
-        return replace(self.setup, sensor_locations=tuple(locations))
+        force = self.setup.force_location
+        return Setup(tuple(locations), None if force is None else force + shift)
+
+    def load_at(self, v: dict[str, float]) -> np.ndarray | None:
+        """The load vector at values checked by :meth:`values`: the hammer's point row (where
+        :meth:`placement` puts it) or the tip row of a release; the model's own (:attr:`load`)
+        at the stated length."""
+        if not self.fits_length or self.load is None:
+            return self.load
+        ops, exc = self.operators(v), self.recording.excitation
+        return ops.rows([self._setup_at(v).force_location])[0] if exc.kind == "force" else ops.tip_value
 
     # ------------------------------------------------------------------ physics
     def system(self, params) -> SecondOrderSystem:
@@ -275,7 +327,7 @@ class BeamModel:
         mass, stiffness, modes = self._mass_stiffness(v)
         reference = self._reference(v) if modes is None and self._departures is not None else None
         system = SecondOrderSystem(mass, damping, stiffness, relaxation,
-                                   self.ops.K0 if relaxation else None, modes, self._departures, reference)
+                                   self.operators(v).K0 if relaxation else None, modes, self._departures, reference)
         if relaxation is not None:
             system.check_stable()
         return system
@@ -283,7 +335,7 @@ class BeamModel:
     def _damping(self, v: dict[str, float]):
         """The mechanisms' and effects' summed damping matrix and the relaxation transform (None
         without memory)."""
-        ops = self.ops
+        ops = self.operators(v)
         damping = np.zeros((ops.size, ops.size))
         relaxations = []
         for m in self.mechanisms:
@@ -309,20 +361,22 @@ class BeamModel:
 
         Without added mass or stiffness (none, or zero at these values) M is parameter-free and
         K = EI K0, whose modes are (EI omega_0^2, Phi_0) of (K0, M): computed once per model,
-        not once per call, and the same for a model with a vanishing effect as without it.
+        not once per call, and the same for a model with a vanishing effect as without it. With
+        a fitted length M and K change with l, and the system finds their modes on each call.
         """
-        mass, stiffness, added = self._with_effects([v] * len(self.effects), self.ops.M, v["EI"] * self.ops.K0,
-                                                    self._setup_at(v))
-        if added:
+        ops = self.operators(v)
+        mass, stiffness, added = self._with_effects([v] * len(self.effects), ops.M, v["EI"] * ops.K0,
+                                                    self._setup_at(v), ops)
+        if added or self.fits_length:
             return mass, stiffness, None
         lam0, phi0 = self._unit_modes
         return mass, stiffness, (v["EI"] * lam0, phi0)
 
-    def _with_effects(self, points, mass: np.ndarray, stiffness: np.ndarray, setup: Setup):
+    def _with_effects(self, points, mass: np.ndarray, stiffness: np.ndarray, setup: Setup, ops: BeamOperators):
         """``mass`` and ``stiffness`` plus each effect's added matrices at its values in ``points``
-        (one dict per effect) and sensors placed as in ``setup``, and whether any effect added a
-        nonzero matrix."""
-        ops, added = self.ops, False
+        (one dict per effect), on the beam of ``ops`` with sensors placed as in ``setup``, and
+        whether any effect added a nonzero matrix."""
+        added = False
         for e, p in zip(self.effects, points, strict=True):
             added_mass, added_stiffness = e.mass(ops, p, setup), e.stiffness(ops, p, setup)
             if added_mass is not None and np.any(added_mass):
@@ -341,10 +395,12 @@ class BeamModel:
         found once, with every effect at unit values. None when some mechanism's damping is not
         a combination of M_0 and K_0 (then the bare modes do not diagonalise it), when nothing
         departs, when the rank exceeds what the ``low_rank`` form takes (an axial load's
-        geometric stiffness has full rank), or when an effect's matrices move with a fitted sensor
-        position (the sensor's own mass): then the directions change with the parameters.
+        geometric stiffness has full rank), when an effect's matrices move with a fitted sensor
+        position (the sensor's own mass): then the directions change with the parameters, or when
+        the length is fitted: the reference beam's modes would change with it.
         """
-        if not all(m.bare_modal for m in self.mechanisms) or self._effects_follow_sensors:
+        if (not all(m.bare_modal for m in self.mechanisms) or self.fits_length
+                or self._effects_follow_sensors):
             return None
         ops, unit = self.ops, {p: 1.0 for e in self.effects for p in e.parameters}
         blocks = [ops.M - ops.rho_a * ops.M0]
@@ -364,9 +420,10 @@ class BeamModel:
             return False
         tolerances = self.recording.setup.location_tolerances
         half_span = 0.5 * self.ops.length
-        moved = self._setup_at({name: np.copysign(0.5 * min(tolerances[i], half_span),
-                                                  half_span - self.setup.sensor_locations[i])
-                                for name, i in self.offsets.items()})
+        moved = self._setup_at({LENGTH: self.ops.length,
+                                **{name: np.copysign(0.5 * min(tolerances[i], half_span),
+                                                     half_span - self.setup.sensor_locations[i])
+                                   for name, i in self.offsets.items()}})
         unit = {p: 1.0 for e in self.effects for p in e.parameters}
         return any(_differ(form(self.ops, unit, self.setup), form(self.ops, unit, moved))
                    for e in self.effects for form in (e.mass, e.stiffness, e.damping))
@@ -381,7 +438,7 @@ class BeamModel:
         key = tuple(sorted(item for p in points for item in p.items()))
         cached = self._references.pop(key, None)
         if cached is None:
-            m_r, k_1, _ = self._with_effects(points, self.ops.M, self.ops.K0, self.setup)
+            m_r, k_1, _ = self._with_effects(points, self.ops.M, self.ops.K0, self.setup, self.ops)
             cached = (m_r, k_1, *undamped_modes(k_1, m_r))
             if len(self._references) >= REFERENCES_KEPT:
                 del self._references[next(iter(self._references))]     # the least recently used
@@ -434,7 +491,7 @@ class BeamModel:
         its nonlinear part to this.
         """
         rows, _ = self.placement(values)
-        return self._output(transfer(system, self.grid, rows, self.load), system, values)
+        return self._output(transfer(system, self.grid, rows, self.load_at(values)), system, values)
 
     def _output(self, h: np.ndarray, system: SecondOrderSystem, values: dict[str, float]) -> np.ndarray:
         """:meth:`linear_response` from the transfer function ``h`` already evaluated on the grid."""
@@ -442,7 +499,7 @@ class BeamModel:
         exc = self.recording.excitation
         if exc.kind == "release":
             rows, _ = self.placement(values)
-            y += static_offset(system, rows, self.orders, self.load, exc.tip_load)[None, :]
+            y += static_offset(system, rows, self.orders, self.load_at(values), exc.tip_load)[None, :]
         return y
 
     def simulate_with_impulses(self, params, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -460,7 +517,7 @@ class BeamModel:
             raise ValueError("force-sample responses need a recording with a measured force")
         values = self.values(params)
         system = self._system(values)
-        h = transfer(system, self.grid, self.placement(values)[0], self.load)
+        h = transfer(system, self.grid, self.placement(values)[0], self.load_at(values))
         y = self.simulate(values) if any(not e.linear for e in self.effects) else self._output(h, system, values)
         columns = unit_sample_responses(self.grid, h * self._delayed(self._unit_drive, values), index)
         return y, columns
@@ -564,12 +621,12 @@ class BeamModel:
         """(outputs (n, P, c), unit-sample responses at ``lags`` (len(lags), P, c) or None)."""
         values = [self.values(p) for p in params]
         systems = [self._system(v) for v in values]
-        h = np.stack([transfer(s, self.grid, self.placement(v)[0], self.load) for s, v in zip(systems, values)],
+        h = np.stack([transfer(s, self.grid, self.placement(v)[0], self.load_at(v)) for s, v in zip(systems, values)],
                      axis=1)                                                       # (n_freq, P, c)
         y = self.grid.samples(h * self._delayed_batch(self.drive, values))
         exc = self.recording.excitation
         if exc.kind == "release":
-            y += np.stack([static_offset(s, self.placement(v)[0], self.orders, self.load, exc.tip_load)
+            y += np.stack([static_offset(s, self.placement(v)[0], self.orders, self.load_at(v), exc.tip_load)
                            for s, v in zip(systems, values)])[None]
         if lags is None:
             return y, None

@@ -26,7 +26,7 @@ def _beam(path):
 def listing(beam=None) -> list[str]:
     """The lines ``bayesbeam models`` prints; default priors as numbers when ``beam`` is given."""
     from bayesbeam.compare import MODEL_SETS
-    from bayesbeam.inference.priors import NOISE_DEFAULTS, OFFSET_PRIOR, SCALES
+    from bayesbeam.inference.priors import NOISE_DEFAULTS, SCALES, SETUP_PRIORS
     from bayesbeam.model import PARAMETER_UNITS, SETUP_PARAMETER_UNITS
     from bayesbeam.physics.effects import REGISTRY as EFFECTS
     from bayesbeam.physics.mechanisms import PRESETS
@@ -47,8 +47,9 @@ def listing(beam=None) -> list[str]:
     lines += ["", "Noise, per sensor channel <s> (--noise white: sigma_<s>; --noise ar1: also phi_<s>):"]
     units = {"sigma": "channel unit", "phi": "-"}
     lines += [_parameter_line(f"{name}_<s>", units[name], None, prior_of=name) for name in NOISE_DEFAULTS]
-    lines += ["", "Set-up, per sensor <s> whose beam.toml [[sensor]] states location_tolerance > 0 (every model):"]
-    lines += [f"      {name:<11} {unit:<14} {OFFSET_PRIOR}" for name, unit in SETUP_PARAMETER_UNITS.items()]
+    lines += ["", ("Set-up, fitted by every model where beam.toml states a tolerance > 0 (l: [beam] "
+                   "length_tolerance; dx_<s>: [[sensor]] location_tolerance of sensor <s>):")]
+    lines += [f"      {name:<11} {unit:<14} {SETUP_PRIORS[name]}" for name, unit in SETUP_PARAMETER_UNITS.items()]
     if beam is None:
         scales = ", ".join(s for s in SCALES if s and s != "RMS")
         lines += ["", (f"Prior scales: {scales} of the beam.toml (RMS: the channel's). --beam BEAM_TOML "

@@ -28,6 +28,7 @@ zener_scale    -               log-normal, median 1, sd(log) 0.5           Zener
 c_theta        N m s/rad       log-uniform [1e-6, 10] EI_0/l (x 1 s)       root dashpot
 sigma_<s>      sensor units    log-uniform [1e-6, 10] x channel RMS        noise sd per channel
 phi_<s>        -               uniform [-0.99, 0.99]                       AR(1) coefficient
+l              m               uniform [l - t_l, l + t_l]                  free length (**)
 dx_<s>         m               uniform [-t_s, t_s], on the beam            sensor offset (**)
 =============  ==============  ==========================================  ======================
 
@@ -43,13 +44,14 @@ three sds a factor 2.5 either way. Without a stated mass the default scales with
 rho A l: a sensor of 1e-4 rho A l moves no frequency by more than 2e-4 of itself, one of 0.2
 rho A l is a heavier body than any sensor mounted on a beam.
 
-(**) A sensor whose location beam.toml states with a ``location_tolerance`` t_s > 0 is placed at
-its stated location plus the offset dx_<s>, a parameter of every model (``bayesbeam.model``); the
-offset is uniform over [-t_s, t_s], cut to the beam ([-x_s, l - x_s] for a sensor stated at x_s):
-a tolerance states an interval and nothing about where inside it the sensor sits, and the uniform
-is the least informative distribution on an interval (a normal of sd t_s/2 cut at +-t_s would claim
-the stated position is likelier than its neighbours, which the tolerance does not say). A tip
-sensor's offset is therefore [-t_s, 0].
+(**) A free length stated with ``[beam] length_tolerance`` t_l > 0 makes the length l a parameter
+of every model, uniform over [l - t_l, l + t_l] (l the stated length); a sensor whose location
+beam.toml states with a ``location_tolerance`` t_s > 0 is placed at its stated location plus the
+offset dx_<s>, uniform over [-t_s, t_s] cut to the stated beam ([-x_s, l - x_s] for a sensor stated
+at x_s; a tip sensor's offset is [-t_s, 0]). A tolerance states an interval and nothing about where
+inside it the value lies, and the uniform is the least informative distribution on an interval (a
+normal of sd t/2 cut at +-t would claim the stated value is likelier than its neighbours, which the
+tolerance does not say).
 
 Why the literature mechanisms' priors: a fractional Kelvin-Voigt beam's loss factor is about
 (c_f/EI) omega^nu sin(nu pi/2), so c_f/EI_0 in [1e-8, 1] spans loss factors of 1e-8 to 1 at 1 rad/s
@@ -86,7 +88,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bayesbeam.model import SENSOR_OFFSET
+from bayesbeam.model import LENGTH, SENSOR_OFFSET
 
 KINDS = ("lognormal", "loguniform", "uniform")
 #: the names of a kind's two numbers, as a [prior.NAME] table spells them
@@ -203,12 +205,12 @@ SENSOR_MASS_SIGMA = 0.3
 def default_priors(beam, parameter_names, channel_rms: dict[str, float], setup=None) -> dict[str, Prior]:
     """The default table above, for a model's parameters and a recording's channels; ``setup``
     (a recording's :class:`~bayesbeam.io.recording.SetUp`) replaces the defaults it informs and
-    gives the priors of the fitted sensor offsets."""
+    gives the priors of the fitted length and sensor offsets."""
     out = {}
     for name in parameter_names:
-        offset = offset_prior(name, beam, setup)
-        if offset is not None:
-            out[name] = offset
+        stated = tolerance_prior(name, beam, setup)
+        if stated is not None:
+            out[name] = stated
             continue
         if name not in DEFAULTS:
             raise ValueError(f"no default prior for parameter {name!r}; give one in the fit file "
@@ -236,19 +238,22 @@ def setup_prior(name: str, setup) -> Prior | None:
     return None
 
 
-def offset_prior(name: str, beam, setup) -> Prior | None:
-    """The prior of a fitted sensor offset ``dx_<s>`` (m), uniform over the sensor's stated
-    tolerance cut to the beam (see (**) above); None when ``name`` is no sensor's offset."""
+def tolerance_prior(name: str, beam, setup) -> Prior | None:
+    """The prior of the fitted length ``l`` or of a sensor offset ``dx_<s>`` (m), uniform over the
+    stated tolerance (see (**) above); None when ``name`` is neither or nothing is stated."""
     if setup is None:
         return None
+    if name == LENGTH and setup.length_tolerance > 0:
+        return Prior("uniform", beam.length - setup.length_tolerance, beam.length + setup.length_tolerance)
     for sensor, tolerance in zip(setup.sensors, setup.location_tolerances):
         if name == SENSOR_OFFSET.format(sensor.name) and tolerance > 0:
             return Prior("uniform", max(-tolerance, -sensor.location), min(tolerance, beam.length - sensor.location))
     return None
 
 
-#: ``bayesbeam models``'s line for the offset prior (its numbers depend on each recording's sensors)
-OFFSET_PRIOR = "uniform(low=-location_tolerance, high=location_tolerance), cut to the beam"
+#: ``bayesbeam models``'s lines for the set-up's priors (their numbers depend on each recording's set-up)
+SETUP_PRIORS = {LENGTH: "uniform(low=l - length_tolerance, high=l + length_tolerance)",
+                SENSOR_OFFSET.format("<s>"): "uniform(low=-location_tolerance, high=location_tolerance), cut to the beam"}
 
 
 def noise_prior(kind_of_parameter: str) -> Prior:

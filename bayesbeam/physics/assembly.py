@@ -18,7 +18,7 @@ on each interval, so (p+1)-point Gauss-Legendre quadrature is exact.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -101,6 +101,22 @@ class BeamOperators:
         """Mass matrix (kg): beam plus tip body."""
         e, s = self.tip_value, self.tip_slope
         return self.rho_a * self.M0 + self.m_T * np.outer(e, e) + self.J * np.outer(s, s)
+
+    def at_length(self, length: float) -> BeamOperators:
+        """The forms of the same beam (rho_a, m_T, J, grid N, degree, root) at another free length.
+
+        A uniform grid of N intervals on [0, l] is the grid on [0, l_0] stretched by s = l/l_0, and
+        its splines are those of [0, l_0] at x/s (the root combinations are in the grid's local
+        coordinate), so the integrals scale exactly: M_0 s, G_0 / s, K_0 / s^3 (each derivative
+        brings 1/s, dx brings s). They are scaled here rather than integrated again; point rows,
+        the tip's rows and the quadrature come from the basis on [0, l] itself, so a mechanism
+        that integrates in x (a kernel of width b in m) sees the beam of length l.
+        """
+        s = length / self.length
+        other = BeamOperators(replace(self.basis, length=length), self.rho_a, self.m_T, self.J)
+        # the cached properties' own slots: the scaled forms instead of a second quadrature
+        vars(other).update(M0=self.M0 * s, G0=self.G0 / s, K0=self.K0 / s**3)
+        return other
 
     def rows(self, x, deriv: int = 0) -> np.ndarray:
         """Point-evaluation rows: u(x_k) = rows[k] @ w for the coefficient vector w."""

@@ -156,14 +156,15 @@ def integrate(model, params, initial=None, substeps: int | None = None, *, law=N
     if U < 1:
         raise ValueError(f"substeps must be >= 1, got {U}")
     rows, setup = model.placement(values)
-    plant = _Plant(model, system, U, rows)
+    ops = model.operators(values)
+    plant = _Plant(model, system, U, rows, model.load_at(values))
     if isinstance(effect, DryFriction):
-        e_row = effect.contact_row(model.ops, setup)
+        e_row = effect.contact_row(ops, setup)
         solver = _Friction(plant, e_row, effect.bound(values), record)
         force = solver.run()
         inputs, seq, hold = e_row[:, None], force[:, None, :], "moments"
     elif isinstance(effect, QuadraticDrag):
-        rows, weights = effect.quadrature(model.ops)
+        rows, weights = effect.quadrature(ops)
         if law is None:
             c_q = values["c_q"]
             law = (QuadraticDrag.law(values), lambda v: -2.0 * c_q * np.abs(v))
@@ -271,7 +272,7 @@ def _cyclic_take(x: np.ndarray, start: int, count: int) -> np.ndarray:
 class _Plant:
     """The linear system on the fine grid: modes, input signals, and the exact output stage."""
 
-    def __init__(self, model, system: SecondOrderSystem, substeps: int, rows: np.ndarray):
+    def __init__(self, model, system: SecondOrderSystem, substeps: int, rows: np.ndarray, load: np.ndarray):
         rec = model.recording
         # an FFT grid of its own with room for MARGIN samples before and after the record (and
         # for a release before the first sample), far from the windowed period's wrap-around
@@ -293,7 +294,7 @@ class _Plant:
         if exc.kind == "release":
             # node 0 is the release (t = 0); the first sample is at rec.time[0]
             self.t_start = -float(rec.time[0])
-            self.x0 = np.concatenate([np.linalg.solve(system.K, model.load * exc.tip_load),
+            self.x0 = np.concatenate([np.linalg.solve(system.K, load * exc.tip_load),
                                       np.zeros(self.n)])
         else:
             self.t_start = -margin * rec.dt
@@ -311,7 +312,7 @@ class _Plant:
             self.s_in = grid.s
             force = np.concatenate([model.force, np.zeros(grid.n - rec.n_samples)])
             self.f_in = grid.spectrum(force) * grid.weight
-            self.b = model.load
+            self.b = load
             self._offset = round(self.t_start / self.h)
 
     # ------------------------------------------------------------------ input signals

@@ -24,19 +24,23 @@ def priors_of(rec, spec="q1"):
     return dict(zip(post.names, post.priors))
 
 
-def test_the_offset_prior_is_uniform_over_the_tolerance_on_the_beam():
-    """A mid-span sensor at 0.6 m: dx uniform over [-t, t]; a tip sensor at l = 1 m: over [-t, 0]
-    (it cannot sit beyond the free end). Inside the support the density is 1/width, a step past
-    either end it is -inf; bounds exact (they are the stated numbers)."""
+def test_the_set_up_priors_are_uniform_over_the_tolerances():
+    """The free length of the paper beam (1 m +- 5 mm): l uniform over [0.995, 1.005] m. A
+    mid-span sensor at 0.6 m: dx uniform over [-t, t]; a tip sensor at l = 1 m: over [-t, 0] (it
+    cannot sit beyond the free end). Inside the support the density is 1/width, a step past
+    either end it is -inf; bounds to rounding (they are the stated numbers)."""
     mid = Sensor("accel_mid", 0.6, "acceleration", "accel_mid")
     tip = Sensor("accel_tip", 1.0, "acceleration", "accel_tip")
     rec = cases.base_recording(fs=512.0, duration=0.5, sensors=(mid, tip))
     rec = replace(rec.with_signals(np.random.default_rng(1).standard_normal(rec.signals.shape)),
-                  setup_keys={"sensor": [{"location_tolerance": TOLERANCE}, {"location_tolerance": TOLERANCE}]})
+                  setup_keys={"beam": {"length_tolerance": 0.005},
+                              "sensor": [{"location_tolerance": TOLERANCE}, {"location_tolerance": TOLERANCE}]})
     priors = priors_of(rec)
-    for name, (low, high) in {"dx_accel_mid": (-TOLERANCE, TOLERANCE), "dx_accel_tip": (-TOLERANCE, 0.0)}.items():
+    expected = {"l": (0.995, 1.005), "dx_accel_mid": (-TOLERANCE, TOLERANCE), "dx_accel_tip": (-TOLERANCE, 0.0)}
+    assert list(priors)[3:6] == list(expected)          # after EI, gamma, cdI; before the noise
+    for name, (low, high) in expected.items():
         prior = priors[name]
-        assert (prior.kind, prior.a, prior.b) == ("uniform", low, high)
+        assert prior.kind == "uniform" and (prior.a, prior.b) == pytest.approx((low, high), rel=1e-15)
         assert prior.log_density(0.5 * (low + high)) == pytest.approx(-np.log(high - low), rel=1e-12)
         assert prior.log_density(low - 1e-6) == -np.inf and prior.log_density(high + 1e-6) == -np.inf
 
