@@ -2,9 +2,11 @@
 catalogue effect can explain, and diagnosis.json's layout.
 
 Naming concealed effects and leaving null recordings alone are tested on recordings the model did
-not make: tests/acceptance/test_diagnose.py. The cheap cases of tests/diagnosis_cases.py (paper
-beam, 1 s at 512 Hz, q1 damping, N = 6, 2 % noise, diagnosed blind against q1 with 2 SMC repeats
-and 20 map replicates) serve the layout and the free decay.
+not make: tests/acceptance/test_diagnose.py. The free decay and the unexplained line are too,
+here: the reference simulator's recordings of tests/diagnosis_cases.py (paper beam, 1 s at
+512 Hz, q1 damping, 2 % noise), diagnosed blind against q1 at quintic N = 8 with 2 SMC repeats
+and 20 map replicates. The layout and the bookkeeping are plumbing and read the cheap
+BeamModel-made case of tests/diagnosis_cases.py.
 """
 import json
 from types import SimpleNamespace
@@ -13,7 +15,7 @@ import numpy as np
 import pytest
 
 from bayesbeam.diagnose import DECISIVE, diagnose, flags, improved
-from tests.diagnosis_cases import CONFIG, diagnosed, recording
+from tests.diagnosis_cases import REFERENCE_CONFIG, diagnosed, free_decay, recording, reference
 
 #: the map's RMS standardized residual of a right model is 1 up to its own scatter: it averages
 #: ~500 band coordinates (sd of the mean square ~ sqrt(2/500) = 0.06) over a floor estimated
@@ -22,19 +24,12 @@ RMS_TOLERANCE = 0.1
 
 
 def test_a_free_decay_is_diagnosed_without_an_excitation_time():
-    """The cheap q1 recording with a tension raising mode 1 by 2 % (P = 4.77 N), cut to a free
-    decay from 0.1 s (no force: no phase features, each model's initial state fitted). The axial
-    load changes the frequency ratios, which a free decay shows: it must be named, added with the
-    truth inside its 90 % interval, and the residual brought to the noise. (A root spring, first
-    order EI-like, is not visible on this 1 s free decay: the map flags only mode 2 at -0.06 %.)"""
-    from dataclasses import replace
-
-    from bayesbeam.io.recording import Excitation
-    from tests.inference import cases
-
+    """The reference's q1 hammer test with a tension raising mode 1 by 2 % (P = 4.77 N), cut to a
+    free decay from 0.1 s (no force: no phase features, each model's initial state fitted). The
+    axial load changes the frequency ratios, which a free decay shows: it must be named, added with
+    the truth inside its 90 % interval (4.70-5.05 N here), and the residual brought to the noise."""
     truth = 4.77
-    rec = cases.simulated("q1+axial_load", 3, params={**cases.TRUTH["q1"], "P": truth})[0]
-    d = diagnose(replace(rec, excitation=Excitation(kind="free_decay", start=0.1), force=None), "q1", CONFIG)
+    d = diagnose(free_decay(reference((("P", truth),))[0], 0.1), "q1", REFERENCE_CONFIG)
     assert d.added == ["axial_load"] and not d.unexplained
     estimate = d.to_dict()["candidates"][0]["parameters"]["P"]
     assert estimate["q05"] <= truth <= estimate["q95"], estimate
@@ -43,11 +38,12 @@ def test_a_free_decay_is_diagnosed_without_an_excitation_time():
 
 
 def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
-    """A decaying 80 Hz line between modes 3 and 4 (a mode the beam model does not have)."""
-    rec = recording(None)
+    """A decaying 80 Hz line between modes 3 and 4 (a mode the beam model does not have), 15 % of
+    the signal's RMS, added to the reference's q1 recording."""
+    rec = reference()[0]
     t, y = rec.time, rec.signals.copy()
     y[:, 0] += 0.15 * np.sqrt(np.mean(y**2)) * np.exp(-3.0 * t) * np.sin(2 * np.pi * 80.0 * t) * (t > 0.02)
-    d = diagnose(rec.with_signals(y), "q1", CONFIG)
+    d = diagnose(rec.with_signals(y), "q1", REFERENCE_CONFIG)
     assert d.added == [] and d.unexplained and d.trials            # the top candidate was tried, not added
     assert not any(t.decisive and t.improved for t in d.trials)
     (region,) = d.remaining()
@@ -56,6 +52,8 @@ def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
 
 
 def test_diagnosis_json_has_the_issue_layout():
+    """plumbing: diagnosis.json's keys, on the cheap BeamModel-made root spring's diagnosis (that the
+    spring is named on data the model did not make is tests/acceptance/test_diagnose.py's)."""
     summary = json.loads(json.dumps(diagnosed("root_compliance").to_dict()))
     assert {"baseline", "mismatch", "candidates", "added", "unexplained", "final"} <= set(summary)
     assert {"model", "log_evidence", "rms_standardized_residual"} <= set(summary["baseline"])
@@ -175,7 +173,7 @@ def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
 
     asked = []
 
-    def fake_compare(rec, models, config, executor, log):
+    def fake_compare(rec, models, config, executor, log, **options):
         asked.extend(models)
         return {m: _result(m, log_z[m]) for m in models}, None
 
@@ -225,7 +223,8 @@ def test_the_recheck_leaves_out_models_that_cannot_carry_the_effects(monkeypatch
     import bayesbeam.diagnose as dg
 
     log_z = {f"{m}+quadratic_drag": -100.0 - i for i, m in enumerate(dg.DEFAULT_MODELS)}
-    monkeypatch.setattr(dg, "compare", lambda rec, models, *a: ({m: _result(m, log_z[m]) for m in models}, None))
+    monkeypatch.setattr(dg, "compare", lambda rec, models, *a, **options: ({m: _result(m, log_z[m]) for m in models},
+                                                                         None))
     monkeypatch.setattr(dg, "summarise_comparison", lambda rec, results, s: {
         "best": max(results, key=lambda m: results[m].evidence.log_z), "models": {}})
     monkeypatch.setattr(dg, "too_slow", lambda *args: None)
@@ -241,11 +240,8 @@ def test_models_that_need_a_solve_per_frequency_are_not_fitted(spec, slow):
     """Memory beside a full-rank added stiffness (an axial load's geometric stiffness) has no modal
     form: ten times its base model per likelihood, so the diagnosis leaves it out and says why;
     a root spring (rank 1) or a sensor mass keeps q2 fast, and models without memory are never slow.
-    On a free decay none is slow."""
-    from dataclasses import replace
-
+    On a free decay none is slow. plumbing: the recording only supplies the set-up."""
     from bayesbeam.diagnose import too_slow
-    from bayesbeam.io.recording import Excitation
 
     rec = recording(None)
     reason = too_slow(rec, spec, {})
@@ -253,11 +249,12 @@ def test_models_that_need_a_solve_per_frequency_are_not_fitted(spec, slow):
     if slow:
         assert "solve of Z(s) per frequency" in reason
     # a free decay's likelihood needs poles and mode shapes only: no model is too slow there
-    assert too_slow(replace(rec, excitation=Excitation(kind="free_decay", start=0.1), force=None), spec, {}) is None
+    assert too_slow(free_decay(rec, 0.1), spec, {}) is None
 
 
 def test_a_round_fits_what_it_can_and_records_the_rest():
-    """From a q2 baseline an axial load (dense) is left out with its reason, a root spring is kept."""
+    """From a q2 baseline an axial load (dense) is left out with its reason, a root spring is kept.
+    plumbing: the recording only supplies the set-up."""
     from bayesbeam.diagnose import _fittable
 
     current = _result("q2", -100.0)

@@ -1,19 +1,18 @@
 """The mismatch map locates what a fitted model leaves out, and flags nothing when nothing is missing.
 
-Recordings: the cheap cases of tests/inference/cases.py (paper beam, force pulse at 0.75 m, tip
-accelerometer, 1 s at 512 Hz, N = 6, 2 % white noise), simulated with a catalogue effect the
-fitted model (q1, no effect) lacks: a root spring k_theta = 4428 N m/rad (= 100 EI/l: mode 1
-1.9 % low, modes 2-4 1.8-1.9 % low), a 0.5 ms measurement delay, and, on a more damped beam
-(cdI = 1e-3 N m^2 s, so that the beam decays within the record), mains pickup: a 50 Hz sine of
-amplitude equal to the noise sd (2 % of the signal RMS: invisible in the time history). Draws come
-from the Laplace approximation at the optimum, as in test_ppc.
+Recordings: the independent reference simulator's (tests/diagnosis_cases.py: paper beam, q1
+damping, 4 ms hammer pulse at 0.75 m, tip accelerometer, 1 s at 512 Hz, 2 % sensor noise, clean
+force channel), with a catalogue effect the fitted model (q1, no effect, quintic N = 8) lacks: a
+root spring k_theta = 4428 N m/rad (= 100 EI/l: mode 1 1.9 % low), a 0.5 ms measurement delay,
+and, on a more damped beam (cdI = 1e-3 N m^2 s, so that the beam decays within the record), mains
+pickup: a 50 Hz sine of amplitude equal to the noise sd (2 % of the signal RMS: invisible in the
+time history). Draws come from the Laplace approximation at the optimum, as in test_ppc.
 
 False alarms: the map's family-wise level is ALPHA = 0.01 (split over cells, per-mode tests and
-the delay), so the null recording passes with probability about 0.99 (on 30 further null
-recordings nothing was flagged); the seeds are fixed, so the outcome is reproducible. The effects
-stand far above the thresholds, so a flag is not a borderline outcome of the seed: the root
-spring's cells have p <= 1e-8 against Holm's ~1.7e-5, the delay is 58 sd from zero, the mains
-line's cell power is 60 against ~12.
+the delay), so the null recording passes with probability about 0.99; the seeds are fixed, so the
+outcome is reproducible. The effects stand far above the thresholds, so a flag is not a borderline
+outcome of the seed: the root spring's cells have p down to 7e-18 against Holm's ~1.7e-5 (196
+cells), the delay is 64 sd from zero, the mains line's cell power is 61 against ~12.
 """
 import json
 from functools import cache
@@ -21,32 +20,30 @@ from functools import cache
 import numpy as np
 
 from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Setting, decay_rates, holm, locate
-from bayesbeam.inference.fit import FitConfig, prepare
+from bayesbeam.inference.fit import prepare
 from bayesbeam.inference.likelihood import BandProjection
 from bayesbeam.inference.sampler import find_optimum
-from bayesbeam.model import BeamModel
-from tests.inference import cases
+from tests.diagnosis_cases import CONCEALED, FIT, N_INTERVALS, SENSOR_NOISE, reference, rms
 
-#: the concealed effects: (effect, parameter value), None for no effect
-EFFECTS = {"null": None, "root_compliance": ("root_compliance", 4428.0), "measurement_delay": ("measurement_delay", 5e-4),
-           "sensor_mass": ("sensor_mass", 0.01), "axial_load": ("axial_load", 5.0),
-           "dry_friction": ("dry_friction", 0.015), "mains": None}
+#: the cases: a concealed effect's name (tests/diagnosis_cases.py), "null" or "mains"
+CASES = ("null", *CONCEALED, "mains")
+#: the mains case's damping: the beam decays within the record, the line does not
+MAINS_DAMPING = (("cdI", 1e-3),)
 #: replicates per map: enough for the replicates' sd to within ~16 % (1/sqrt(2 (S-1)))
 REPLICATES = 20
 
 
-def recording(case: str, seed: int = 3):
-    """The case's recording: q1 truth (plus the effect) at N = 6 and 2 % noise (plus mains)."""
-    rec = cases.base_recording()
-    truth = dict(cases.TRUTH["q1"], **({"cdI": 1e-3} if case == "mains" else {}))
-    effect = EFFECTS[case]
-    model = BeamModel.from_recording(rec, "q1", 6, effects=[effect[0]] if effect else None)
-    clean = model.simulate(dict(truth, **({model.parameter_names[-1]: effect[1]} if effect else {})))
-    sd = 0.02 * float(np.sqrt(np.mean(clean**2)))
-    noisy = clean + sd * np.random.default_rng(seed).standard_normal(clean.shape)
-    if case == "mains":
-        noisy += sd * np.sin(2 * np.pi * 50.0 * rec.time + 0.3)[:, None]
-    return rec.with_signals(noisy)
+def recording(case: str):
+    """The case's recording (reference simulator); mains: plus a 50 Hz line of the noise's sd."""
+    if case != "mains":
+        return reference(tuple(CONCEALED.get(case, {}).items()))[0]
+    noisy = reference(damping=MAINS_DAMPING)[0]
+    return noisy.with_signals(noisy.signals + mains_amplitude() * np.sin(2 * np.pi * 50.0 * noisy.time + 0.3)[:, None])
+
+
+def mains_amplitude() -> float:
+    """The mains line's amplitude: the sensor noise's sd, 2 % of the clean signal's RMS."""
+    return SENSOR_NOISE.sensor * rms(reference(damping=MAINS_DAMPING)[1].signals)
 
 
 @cache
@@ -54,10 +51,9 @@ def fitted(case: str):
     """(posterior, draws, mismatch) of q1 fitted to the case (shared with test_signatures).
 
     The optimum's global stages are shortened (81 EI scan points, 15 differential-evolution
-    iterations; test_ppc uses the defaults 321 and 40): on these cases it lands within 3e-4
-    posterior sd of the default optimum, at half the cost.
+    iterations; test_ppc uses the defaults 321 and 40), as the diagnosis's screens are cheap.
     """
-    post = prepare(recording(case), "q1", FitConfig(n_intervals=6), 6).posterior
+    post = prepare(recording(case), "q1", FIT, N_INTERVALS).posterior
     optimum = find_optimum(post, np.random.default_rng(1), scan_points=81, de_iterations=15)
     draws = np.random.default_rng(1).multivariate_normal(optimum.theta, optimum.covariance, 200)
     return post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES)
@@ -79,7 +75,8 @@ def test_null_recording_flags_nothing():
 
 def test_root_compliance_is_located_at_the_low_modes():
     """A compliant root changes the low modes most once EI has absorbed its near-uniform shift:
-    the regions cover modes 1 and 2 at the tip sensor, and the fitted noise sd is inflated."""
+    the regions cover modes 1 and 2 at the tip sensor, and the fitted noise sd is inflated (RMS
+    standardized residual 1.46 here)."""
     mis = fitted("root_compliance")[2]
     modes = {r["mode"] for r in mis.regions}
     assert {1, 2} <= modes
@@ -91,7 +88,7 @@ def test_root_compliance_is_located_at_the_low_modes():
 
 def test_delay_is_estimated_within_its_uncertainty():
     """The per-mode phases at the excitation give the delay: 0.5 ms inside +-3 sd of the estimate
-    (99.7 % if the sd is right), with an sd under 0.05 ms (a tenth of the delay)."""
+    (99.7 % if the sd is right; 0.499 +- 0.008 ms here), with an sd under 0.05 ms (a tenth of the delay)."""
     mis = fitted("measurement_delay")[2]
     phase = mis.phase
     assert phase["significant"]
@@ -114,10 +111,11 @@ def test_mains_pickup_is_not_beam_physics():
 def test_misfit_share_of_a_line_equals_its_energy_share_in_the_region():
     """The mains line's misfit share (docstring (e)) computed here from the time signals by numpy's
     FFT of each of the map's blocks: in the region's bins, the line's energy A^2 L/2 per block (A
-    the noise sd sigma, as recording("mains") makes it; 50 Hz falls on a bin of the 256-sample
-    blocks) over the prediction's energy 2|X_k|^2/L plus the noise's 2 sigma^2 per bin and block.
-    The line's cells stand ~60 x above the floor, so the noise inside them moves the share by about
-    1/sqrt(60 x 4) of itself; 10 % covers that and the fitted floor's own error."""
+    the noise sd sigma, 2 % of the reference's clean signal RMS, as recording("mains") makes it;
+    50 Hz falls on a bin of the 256-sample blocks) over the prediction's energy 2|X_k|^2/L plus
+    the noise's 2 sigma^2 per bin and block. The line's cells stand ~60 x above the floor, so the
+    noise inside them moves the share by about 1/sqrt(60 x 4) of itself; 10 % covers that and the
+    fitted floor's own error."""
     mis = fitted("mains")[2]
     (line,) = mis.regions
     s, spec = mis.setting, mis.spectrogram
@@ -126,9 +124,7 @@ def test_misfit_share_of_a_line_equals_its_energy_share_in_the_region():
     f = np.fft.rfftfreq(L, 1 / s.projection.fs)
     inside = np.abs(f - line["peak_hz"]) < (line["band_hz"][1] - line["band_hz"][0]) / 2
     e_prediction = np.sum(2 * np.abs(np.fft.rfft(blocks, axis=1)[:, inside]) ** 2 / L)
-    rec = cases.base_recording()
-    clean = BeamModel.from_recording(rec, "q1", 6).simulate(dict(cases.TRUTH["q1"], cdI=1e-3))
-    sigma = 0.02 * np.sqrt(np.mean(clean**2))
+    sigma = mains_amplitude()
     e_line = len(blocks) * L * sigma**2 / 2
     e_noise = len(blocks) * inside.sum() * 2 * sigma**2
     expected = np.sqrt(e_line / (e_prediction + e_noise))
@@ -139,8 +135,9 @@ def test_misfit_share_of_a_line_equals_its_energy_share_in_the_region():
 
 def test_the_root_springs_misfit_is_practically_significant():
     """A root spring that shifts the low modes by 1.9 % leaves, after EI absorbed the common
-    shift, errors of several percent in amplitude and damping at the modes it flags (5 % and 9 %
-    here): each region's misfit is more than 1 % of what the recording holds there."""
+    shift, errors of several percent in amplitude and damping at the modes it flags (mode 2's
+    amplitude 5.1 %, mode 3's damping 12 % here): each region's misfit is more than 1 % of what
+    the recording holds there."""
     mis = fitted("root_compliance")[2]
     assert mis.regions and all(r["practically_significant"] for r in mis.regions)
 

@@ -14,8 +14,8 @@ CHEAP = ["--model", "q1", "--n-intervals", "6", "--repeats", "2", "--replicates"
 
 @pytest.fixture(scope="module")
 def null(tmp_path_factory):
-    """The cheap recording with nothing concealed, as a recording directory (the library's
-    diagnoses of concealed effects are tests/test_diagnose.py's; this is the command's plumbing)."""
+    """plumbing: the cheap BeamModel-made recording with nothing concealed, as a recording directory
+    (diagnoses of concealed effects on data the model did not make are tests/acceptance/test_diagnose.py's)."""
     return str(write_recording(recording(None), tmp_path_factory.mktemp("recs") / "null"))
 
 

@@ -1,8 +1,9 @@
 """The diagnosis report: one self-contained HTML file with the maps before and after, the per-mode
 table, the decisions and the added effect's posterior, whose every figure loads in a browser.
 
-The shared cheap diagnoses (tests/diagnosis_cases.py) feed it: a concealed root spring (found and
-added) and a null recording (nothing flagged, nothing fitted). Headless Chromium renders each
+Plumbing: the shared cheap BeamModel-made diagnoses (tests/diagnosis_cases.py) feed it, a
+concealed root spring (found and added) and a null recording (nothing flagged, nothing fitted);
+diagnoses on data the model did not make are tests/acceptance/test_diagnose.py's. Headless Chromium renders each
 report and the report's own script counts the images that decoded.
 """
 import html
