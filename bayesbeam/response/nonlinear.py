@@ -68,6 +68,9 @@ Friction: exact stick-slip, events located inside the steps
   exactly; the sub-step shape of the force enters the output through the step's mean and
   first moment. Default U = 8: on a hammer test with hundreds of events, 0.14% of the
   friction effect's RMS.
+* The sliding phases, with every reversal inside them, run in compiled code
+  (:func:`bayesbeam.response._kernels.friction_slide`); the held phases and the conversions
+  between the two states, a few per stick, in numpy.
 
 A force held constant over a step and chosen to null the tip velocity at its end (Moreau's
 time-stepping on the exact exponential) would be unstable here: with :math:`\omega h \gg 1`
@@ -426,7 +429,6 @@ def _lagrange_coefficients(points: int = 6) -> np.ndarray:
 
 
 _LAGRANGE = _lagrange_coefficients()
-_POWERS = np.arange(6)
 
 
 def _compose(coef: np.ndarray, offset: float) -> np.ndarray:
@@ -439,16 +441,10 @@ def _compose(coef: np.ndarray, offset: float) -> np.ndarray:
     return out
 
 
-_SHIFTED = [np.array([_compose(_LAGRANGE[j], off) for j in range(6)]) for off in range(6)]
-
-
-def _step_poly(column: np.ndarray, k: int) -> np.ndarray:
-    """Interpolant of a node signal on step k as coefficients in powers of theta (ascending)."""
-    base = min(max(k - 2, 0), column.shape[0] - 6)
-    return column[base:base + 6] @ _SHIFTED[k - base]
-
-
-_NO_POLY = np.zeros(0)
+#: _SHIFTED[o] (6, 6): the six node values of a signal -> its interpolant on the step at offset o
+#: from the first of them, in ascending powers of theta (:func:`_kernels.step_poly`)
+_SHIFTED = np.array([[_compose(_LAGRANGE[j], off) for j in range(6)] for off in range(6)])
+_NO_POLY = _NO_RECORD = np.zeros(0)
 
 
 class _IntraStep:
@@ -472,9 +468,6 @@ class _IntraStep:
 
 #: most events handled inside one fine step before the step is finished without further checks
 _MAX_EVENTS_PER_STEP = 32
-#: reads of the held-minus-free forced response summed from its spectrum (about 0.1 ms each)
-#: before it is tabulated by one inverse FFT (:meth:`_Plant.coarse`, the cost of about 50 reads) and interpolated
-_DIRECT_READS = 16
 
 
 def _moment_weights() -> np.ndarray:
@@ -508,11 +501,12 @@ class _Friction:
         idx = np.arange(_WINDOW_MAX + 1)
         self.epow = _powers(p.E, idx.size)
         self.spow = np.vstack([np.zeros_like(lam), np.cumsum(self.epow[:-1], axis=0)])
-        self.pv = _real_rows(self.cv * self.epow)
-        self.qv = (self.spow @ (self.cv * self.gamma_h)).real
-        if record:
-            self.pu = _real_rows(self.cu * self.epow)
-            self.qu = (self.spow @ (self.cu * self.gamma_h)).real
+        # the sliding tip's velocity (and, recorded, displacement) j steps on: pv[j] . z + gam qv[j]
+        pv = _real_rows(self.cv * self.epow)
+        qv = (self.spow @ (self.cv * self.gamma_h)).real
+        pu, qu = (_real_rows(self.cu * self.epow), (self.spow @ (self.cu * self.gamma_h)).real) if record else (pv, qv)
+        self._tables = (pv, qv, pu, qu, self.epow, self.spow)
+        self._free = np.stack([p.E, self.lam_h, self.beta_lam, self.cv, self.cvb, self.cv_lam, self.cu, self.gamma_h])
         # the beam with its tip held: w = T q + psi u_tip, T spanning the null space of e
         self.T = linalg.null_space(e[None, :])
         kinv_e = np.linalg.solve(K, e)
@@ -542,9 +536,10 @@ class _Friction:
     def _linear_signals(self):
         """Tip velocity, acceleration and held-tip force of the forced responses, at the nodes."""
         p, e, n = self.p, self.e, self.p.n
-        self._diff, self._diff_reads = None, 0
-        if not p.forced:
-            self.lin = None
+        self._diff = None
+        if not p.forced:                   # a release: no forced response
+            self.lin = np.zeros((p.n_nodes, 4))
+            self._lin_moments = np.zeros((2, p.n_nodes))
             self._diff_spec = None
             return
         free = p.linear_spectrum(np.eye(n))                          # w(s) of the linear response
@@ -566,40 +561,38 @@ class _Friction:
         self._lin_moments = [w[0] * v[:-3] + w[1] * v[1:-2] + w[2] * v[2:-1] + w[3] * v[3:]
                              for w in _STEP_MOMENTS]
 
-    def _interp(self, table: np.ndarray, k: int, theta: float) -> np.ndarray:
-        """Row of ``table`` (nodes x ch) at node k + theta by 6-point Lagrange interpolation."""
-        base = min(max(k - 2, 0), table.shape[0] - 6)
-        xi = k + theta - base
-        w = _LAGRANGE @ (xi ** _POWERS)
-        return w @ table[base:base + 6]
-
     def _lin_at(self, k: int, theta: float) -> np.ndarray:
-        if self.lin is None:
-            return np.zeros(4)
+        """The forced signals (``lin``'s row) at node k + theta by 6-point Lagrange interpolation."""
         if theta == 0.0:
             return self.lin[k]
-        return self._interp(self.lin, k, theta)
+        return _kernels.lagrange_row(self.lin, k, theta, _LAGRANGE)
 
-    def _diff_at(self, k: int, theta: float):
-        """(w_held - w_free, its rate) of the forced responses at node k + theta."""
+    def _diff_at(self, k: int, theta: float, exact: bool = False):
+        """(w_held - w_free, its rate) of the forced responses at node k + theta.
+
+        ``exact``: summed from the spectrum (0.1 ms), for the first and the last node. The events'
+        reads come from one table at dt/2 (:meth:`_Plant.coarse`, built at the first of them, the
+        cost of about 50 sums), so that every stick and slip of a history converts through the
+        same representation (entering and leaving a stick through two different ones would not
+        cancel their difference).
+        """
         p, n = self.p, self.p.n
         if self._diff_spec is None:
             return np.zeros(n), np.zeros(n)
         t = p.t_start + (k + theta) * p.h
-        if self._diff_reads < _DIRECT_READS:        # a few reads: summed from the spectrum
-            self._diff_reads += 1
+        if exact:
             return p.at_time(self._diff_spec, t)
-        if self._diff is None:                      # many: tabulated at dt/2 once
+        if self._diff is None:
             self._diff = p.coarse(np.hstack([self._diff_spec, p.s_in[:, None] * self._diff_spec]))
         x = p.at(self._diff, t)
         return x[:n], x[n:]
 
     # ------------------------------------------------------------------ state conversions
-    def _to_held(self, k: int, theta: float, z: np.ndarray):
+    def _to_held(self, k: int, theta: float, z: np.ndarray, exact: bool = False):
         """Held-tip state (y, U_s) at node k + theta from the free-part modal state z.
 
         The tip velocity left (zero at a located crossing, round-off otherwise) is removed by
-        the constraint's impulse, returned as the third value (N s).
+        the constraint's impulse, returned as the third value (N s). ``exact``: see :meth:`_diff_at`.
         """
         p, e = self.p, self.e
         lin = self._lin_at(k, theta)
@@ -608,14 +601,14 @@ class _Friction:
         impulse = -(lin[0] + e @ wd) / self.mu
         wd = wd + self.Minv_e * impulse
         u_s = lin[3] + e @ w
-        dw, dwd = self._diff_at(k, theta)
+        dw, dwd = self._diff_at(k, theta, exact)
         q = self.T.T @ (w - self.psi * u_s - dw)
         qd = self.T.T @ (wd - dwd)
         return self.Vri @ np.concatenate([q, qd]), u_s, impulse
 
-    def _to_free(self, k: int, theta: float, y: np.ndarray, u_s: float) -> np.ndarray:
-        """Free-part modal state z at node k + theta from the held-tip state."""
-        dw, dwd = self._diff_at(k, theta)
+    def _to_free(self, k: int, theta: float, y: np.ndarray, u_s: float, exact: bool = False) -> np.ndarray:
+        """Free-part modal state z at node k + theta from the held-tip state (``exact``: :meth:`_diff_at`)."""
+        dw, dwd = self._diff_at(k, theta, exact)
         qq = (self.Vr @ y).real
         m = self.T.shape[1]
         w = self.T @ qq[:m] + self.psi * u_s + dw
@@ -623,156 +616,90 @@ class _Friction:
         return self.p.Vi @ np.concatenate([w, wd])
 
     # ------------------------------------------------------------------ one step with events
-    def _finish_step(self, k: int, a: float, st: dict) -> None:
-        """Advance state ``st`` from node k + a to node k + 1, handling every event inside."""
-        F, lin_none = self.F_c, self.lin is None
-        acc = self._acc
-        for _ in range(_MAX_EVENTS_PER_STEP):
-            rem = 1.0 - a
-            if st["slip"]:
-                z, gam, sgn = st["z"], st["gam"], st["sgn"]
-                ez = self.p.E if a == 0.0 else np.exp(self.lam_h * rem)
-                z_b = ez * z + gam * (ez - 1) * self.beta_lam
-                v_b = (0.0 if lin_none else self.lin[k + 1, 0]) + (self.cv @ z_b).real
-                if sgn * v_b > 0 or st["n"] >= _MAX_EVENTS_PER_STEP - 1:
-                    acc(k, a, 1.0, gam, gam)
-                    st["z"], st["v"] = z_b, v_b
-                    return
-                # sgn * v_tip(theta): free-part state at a under the constant force gam
-                f = _IntraStep(self.lam_h, self.cv * z + gam * self.cvb, -gam * self.cvb.sum().real,
-                               None if lin_none else _step_poly(self.lin[:, 0], k), a, sgn)
-                lo, hi, f_lo, f_hi = a, 1.0, sgn * st["v"], sgn * v_b
-                if not f_lo > 0:                          # the slip starts at a: find it moving
-                    lo = None
-                    for _ in range(16):
-                        t = 0.5 * (a + hi)
-                        ft = f(t)[0]
-                        if ft > 0:
-                            lo, f_lo = t, ft
-                            break
-                        hi, f_hi = t, ft
-                theta = hi if lo is None else f.root(lo, hi, f_lo, f_hi)
-                ez = np.exp(self.lam_h * (theta - a))
-                z = ez * z + gam * (ez - 1) * self.beta_lam
-                acc(k, a, theta, gam, gam)
-                lin = self._lin_at(k, theta)
-                demand = -(lin[1] + (self.cv_lam @ z).real) / self.mu
-                st["n"] += 1
-                if abs(demand) <= F:                      # friction holds the tip: stick
-                    st["y"], st["u_s"], _ = self._to_held(k, theta, z)
-                    st["g"] = demand
-                    st["slip"] = False
-                    self.events["stick"] += 1
-                else:                                     # it slides on (normally reversed)
-                    st["sgn"] = -np.sign(demand)
-                    st["gam"] = -F * st["sgn"]
-                    st["z"], st["v"] = z, 0.0
-                    self.events["reversal" if st["sgn"] != sgn else "tangency"] += 1
-                a = theta
-            else:
-                y, u_s, g_a = st["y"], st["u_s"], st["g"]
-                er = np.exp(self.lr_h * rem)
-                y_b = er * y
-                g_b = (0.0 if lin_none else self.lin[k + 1, 2]) + self.k_tip * u_s + (self.cg @ y_b).real
-                if abs(g_b) <= F or st["n"] >= _MAX_EVENTS_PER_STEP - 1:
-                    acc(k, a, 1.0, g_a, g_b)
-                    st["y"], st["g"] = y_b, g_b
-                    return
-                side = np.sign(g_b)
-                # F - side * demand(theta), decreasing through zero at the exit
-                f = _IntraStep(self.lr_h, self.cg * y, self.k_tip * u_s - side * F,
-                               None if lin_none else _step_poly(self.lin[:, 2], k), a, -side)
-                f_a = F - side * g_a
-                theta = a if f_a <= 0 else f.root(a, 1.0, f_a, F - side * g_b)
-                y = np.exp(self.lr_h * (theta - a)) * y
-                acc(k, a, theta, g_a, side * F)
-                st["z"] = self._to_free(k, theta, y, u_s)
-                st["sgn"] = -side
-                st["gam"] = side * F
-                st["v"] = 0.0
-                st["slip"] = True
-                st["n"] += 1
-                self.events["slip"] += 1
-                a = theta
+    def _hold_step(self, k: int, a: float, st: dict) -> tuple[int, float]:
+        """Advance the held tip from node k + a: to node k + 1, returned as (k + 1, 0), or to the
+        instant theta where the demand leaves +-F_c and the tip starts to slide, returned as
+        (k, theta) with ``st`` converted to the sliding state."""
+        F = self.F_c
+        y, u_s, g_a = st["y"], st["u_s"], st["g"]
+        y_b = np.exp(self.lr_h * (1.0 - a)) * y
+        g_b = self.lin[k + 1, 2] + self.k_tip * u_s + (self.cg @ y_b).real
+        if abs(g_b) <= F or st["n"] >= _MAX_EVENTS_PER_STEP - 1:
+            _kernels.accumulate(self.c0, self.c1, k, a, 1.0, g_a, g_b)
+            st["y"], st["g"] = y_b, g_b
+            if self.keep:
+                self.rec_u[k + 1] = u_s
+            return k + 1, 0.0
+        side = np.sign(g_b)
+        # F - side * demand(theta), decreasing through zero at the exit
+        f = _IntraStep(self.lr_h, self.cg * y, self.k_tip * u_s - side * F,
+                       _kernels.step_poly(self.lin[:, 2], k, _SHIFTED), a, -side)
+        f_a = F - side * g_a
+        theta = a if f_a <= 0 else f.root(a, 1.0, f_a, F - side * g_b)
+        y = np.exp(self.lr_h * (theta - a)) * y
+        _kernels.accumulate(self.c0, self.c1, k, a, theta, g_a, side * F)
+        st.update(z=self._to_free(k, theta, y, u_s), sgn=-side, gam=side * F, v=0.0, slip=True, n=st["n"] + 1)
+        self.counts[1] += 1
+        return k, theta
 
-    def _acc(self, k: int, a: float, b: float, g_a: float, g_b: float) -> None:
-        """Add the force, linear from g_a to g_b over [a, b] of step k, to its mean and moment."""
-        if b <= a:
-            return
-        m = 0.5 * (a + b)
-        self.c0[k] += (b - a) * 0.5 * (g_a + g_b)
-        self.c1[k] += 2.0 * (b - a) * ((a - 0.5) * g_a + 2.0 * (m - 0.5) * (g_a + g_b) + (b - 0.5) * g_b)
+    def _slide(self, k: int, a: float, st: dict) -> tuple[int, float]:
+        """Advance the sliding tip from node k + a until it sticks (at the returned k + theta, with
+        ``st`` converted to the held state) or reaches the last node (:func:`_kernels.friction_slide`)."""
+        rec = (self.rec_u, self.rec_v) if self.keep else (_NO_RECORD, _NO_RECORD)
+        status, k, a, st["n"], st["z"], st["gam"], st["sgn"], st["v"], demand = _kernels.friction_slide(
+            k, a, st["n"], st["z"], st["gam"], st["sgn"], st["v"], self.p.n_nodes - 1, self._free,
+            self._tables, self.lin, _LAGRANGE, _SHIFTED, self.F_c, self.mu, self.c0, self.c1, self.counts,
+            self.keep, *rec, _MAX_EVENTS_PER_STEP)
+        if status == _kernels.STUCK:
+            st["y"], st["u_s"], _ = self._to_held(k, a, st["z"])
+            st.update(g=demand, slip=False)
+        return k, a
 
     # ------------------------------------------------------------------ the event loop
     def run(self) -> np.ndarray:
-        p, F = self.p, self.F_c
+        p, F, lin = self.p, self.F_c, self.lin
         last = p.n_nodes - 1
         self.c0, self.c1 = np.zeros(last), np.zeros(last)
+        self.counts = np.zeros(4, dtype=np.int64)          # stick, slip, reversal, tangency
         if self.keep:
-            rec_u, rec_v = np.zeros(p.n_nodes), np.zeros(p.n_nodes)
-        self.events = {"stick": 0, "slip": 0, "reversal": 0, "tangency": 0}
-        y, u_s, _ = self._to_held(0, 0.0, p.Vi @ p.x0)
-        lin0 = 0.0 if self.lin is None else self.lin[0, 2]
-        st = {"slip": False, "y": y, "u_s": u_s, "g": lin0 + self.k_tip * u_s + (self.cg @ y).real,
+            self.rec_u, self.rec_v = np.zeros(p.n_nodes), np.zeros(p.n_nodes)
+        y, u_s, _ = self._to_held(0, 0.0, p.Vi @ p.x0, exact=True)
+        st = {"slip": False, "y": y, "u_s": u_s, "g": lin[0, 2] + self.k_tip * u_s + (self.cg @ y).real,
               "n": 0, "v": 0.0}
         if abs(st["g"]) > F:                              # the initial state cannot be held
-            st.update(z=self._to_free(0, 0.0, y, u_s), sgn=-np.sign(st["g"]), slip=True, v=0.0)
+            st.update(z=self._to_free(0, 0.0, y, u_s, exact=True), sgn=-np.sign(st["g"]), slip=True, v=0.0)
             st["gam"] = -F * st["sgn"]
-        k, window = 0, _WINDOW_MIN
-        lin = self.lin
+        k, a, window = 0, 0.0, _WINDOW_MIN
         if self.keep:
-            rec_u[0] = u_s
+            self.rec_u[0] = u_s
         while k < last:
-            L = min(window, last - k)
-            st["n"] = 0
-            if not st["slip"]:
+            if st["slip"]:
+                k, a = self._slide(k, a, st)
+                continue
+            if a == 0.0:                                  # held: full steps by the window tables
+                L = min(window, last - k)
+                st["n"] = 0
                 y, u_s = st["y"], st["u_s"]
-                g = self.k_tip * u_s + self.pg[: L + 1] @ _stack(y)
-                if lin is not None:
-                    g += lin[k:k + L + 1, 2]
+                g = self.k_tip * u_s + self.pg[: L + 1] @ _stack(y) + lin[k:k + L + 1, 2]
                 over = np.flatnonzero(np.abs(g[1:]) > F)
                 j = L if over.size == 0 else int(over[0])         # full steps before the exit step
                 if j:
                     ys = _stack(y)
-                    self.c0[k:k + j] = self.k_tip * u_s + self.pg_mean[:j] @ ys
-                    self.c1[k:k + j] = self.pg_moment[:j] @ ys
-                    if lin is not None:
-                        self.c0[k:k + j] += self._lin_moments[0][k:k + j]
-                        self.c1[k:k + j] += self._lin_moments[1][k:k + j]
+                    self.c0[k:k + j] = self.k_tip * u_s + self.pg_mean[:j] @ ys + self._lin_moments[0][k:k + j]
+                    self.c1[k:k + j] = self.pg_moment[:j] @ ys + self._lin_moments[1][k:k + j]
                 if self.keep:
-                    rec_u[k:k + j + 1] = u_s
+                    self.rec_u[k:k + j + 1] = u_s
                 st["y"], st["g"] = self.er_pow[j] * y, g[j]
-            else:
-                z, gam, sgn = st["z"], st["gam"], st["sgn"]
-                v = self.pv[1:L + 1] @ _stack(z) + gam * self.qv[1:L + 1]
-                if lin is not None:
-                    v += lin[k + 1:k + L + 1, 0]
-                bad = np.flatnonzero(sgn * v <= 0)
-                j = L if bad.size == 0 else int(bad[0])
-                self.c0[k:k + j] = gam
-                if self.keep and j:
-                    zu = self.pu[1:j + 1] @ _stack(z) + gam * self.qu[1:j + 1]
-                    rec_u[k + 1:k + j + 1] = zu + (0.0 if lin is None else lin[k + 1:k + j + 1, 3])
-                    rec_v[k + 1:k + j + 1] = v[:j]
-                st["z"] = self.epow[j] * z + self.spow[j] * self.gamma_h * gam
-                if j:
-                    st["v"] = v[j - 1]
-            k += j
-            if j == L:
-                window = min(2 * window, _WINDOW_MAX)
-                continue
-            window = min(_WINDOW_MAX, max(_WINDOW_MIN, 2 * j))
-            self._finish_step(k, 0.0, st)
-            k += 1
-            if self.keep:
-                if st["slip"]:
-                    rec_v[k] = st["v"]
-                    rec_u[k] = (self.cu @ st["z"]).real + (0.0 if lin is None else lin[k, 3])
-                else:
-                    rec_u[k] = st["u_s"]
-        z = st["z"] if st["slip"] else self._to_free(last, 0.0, st["y"], st["u_s"])
+                k += j
+                if j == L:
+                    window = min(2 * window, _WINDOW_MAX)
+                    continue
+                window = min(_WINDOW_MAX, max(_WINDOW_MIN, 2 * j))
+            k, a = self._hold_step(k, a, st)
+        z = st["z"] if st["slip"] else self._to_free(last, 0.0, st["y"], st["u_s"], exact=True)
         self.final_state = (p.V @ z).real
-        self.record = {"u_tip": rec_u, "v_tip": rec_v, "events": dict(self.events)} if self.keep else {}
+        events = dict(zip(("stick", "slip", "reversal", "tangency"), self.counts.tolist()))
+        self.record = {"u_tip": self.rec_u, "v_tip": self.rec_v, "events": events} if self.keep else {}
         return np.stack([self.c0, self.c1], axis=1)
 
 

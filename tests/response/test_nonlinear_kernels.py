@@ -103,3 +103,26 @@ def test_exact_reads_of_the_held_response_equal_its_table():
     tabulated = np.array([plant.at(table, t) for t in times])
     peak = np.max(np.abs(table[0]), axis=0)
     assert np.max(np.abs(exact - tabulated) / peak) < 2e-7
+
+
+def test_step_interpolants_and_moments_are_exact_for_polynomials():
+    """The 6-point Lagrange row and the per-step polynomial reproduce a quintic exactly, and the
+    accumulated mean and 12 x first moment of a force linear on [a, b] equal their integrals
+    (numpy's polynomial integration): all to 1e-12 relative (rounding)."""
+    nodes = np.arange(10.0)
+    quintic = np.polynomial.Polynomial([0.3, -1.0, 0.5, 0.2, -0.05, 0.01])
+    table = np.stack([quintic(nodes), 2.0 * quintic(nodes)], axis=1)
+    for k, theta in ((0, 0.3), (4, 0.7), (8, 0.25)):
+        expected = quintic(k + theta)
+        assert np.allclose(_kernels.lagrange_row(table, k, theta, nl._LAGRANGE), [expected, 2 * expected],
+                           rtol=1e-12, atol=0)
+        coef = _kernels.step_poly(table[:, 0], k, nl._SHIFTED)
+        assert np.polynomial.Polynomial(coef)(theta) == pytest.approx(expected, rel=1e-12)
+    c0, c1 = np.zeros(1), np.zeros(1)
+    a, b, g_a, g_b = 0.2, 0.9, 1.5, -0.5
+    force = np.polynomial.Polynomial.fit([a, b], [g_a, g_b], 1).convert()
+    _kernels.accumulate(c0, c1, 0, a, b, g_a, g_b)
+    mean = force.integ()
+    moment = (12.0 * force * np.polynomial.Polynomial([-0.5, 1.0])).integ()
+    assert c0[0] == pytest.approx(mean(b) - mean(a), rel=1e-12)
+    assert c1[0] == pytest.approx(moment(b) - moment(a), rel=1e-12)
