@@ -9,7 +9,10 @@ about the example's truth, noise profiled there: what an emcee half-ensemble or 
 holds) against ``LogPosterior.__call__`` set by set, the baseline, timed in the same run (best of
 3, process CPU time on one thread). The table gives milliseconds per set and the ratio
 batched / loop, and the largest relative difference of the two paths' values. Then where the time
-goes: the five largest internal times of a cProfile of each path on q3.
+goes: the five largest internal times of a cProfile of each path on q3. Last, what a user waits
+for: one SMC evidence run per model at 150 Hz (256 particles, from the Laplace reference at an
+optimum polished from the truth, the same seed), batched and with ``BAYESBEAM_BATCH=0``: CPU time,
+stages, evaluations and log Z of each.
 """
 from __future__ import annotations
 
@@ -30,7 +33,10 @@ from pathlib import Path
 import numpy as np
 import tables  # benchmarks/tables.py: the script's folder is first on sys.path
 
+from bayesbeam.inference.evidence import laplace_reference, smc
 from bayesbeam.inference.fit import FitConfig, prepare
+from bayesbeam.inference.posterior import BATCH_VARIABLE
+from bayesbeam.inference.sampler import find_optimum
 from bayesbeam.io import load_recording
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "data" / "examples" / "paper_q3_hammer"
@@ -71,6 +77,29 @@ def top_entries(fn, count: int = 5) -> list[str]:
             for (path, line, name), (_, _, tottime, _, _) in rows]
 
 
+def evidence_runs(rec, ei: float, n_intervals: int) -> dict[str, float]:
+    """One SMC run per model at 150 Hz, batched and set by set (same seed): CPU-time ratios."""
+    print(f"\none SMC evidence run at 150 Hz, N = {n_intervals}, 256 particles (CPU s)")
+    print(f"{'model':<6}{'loop':>8}{'batched':>9}{'ratio':>7}{'stages':>8}{'evaluations':>13}   log Z (loop, batched)")
+    ratios = {}
+    for model, damping in MODELS.items():
+        post = prepare(rec, model, FitConfig(max_frequency=150.0), n_intervals).posterior
+        optimum = find_optimum(post, np.random.default_rng(1), start={"EI": ei, **damping})
+        reference = laplace_reference(post.priors, optimum.theta, optimum.covariance)
+        runs, seconds = {}, {}
+        for flag in ("0", "1"):
+            os.environ[BATCH_VARIABLE] = flag
+            start = time.process_time()
+            runs[flag] = smc(post.terms, reference, np.random.default_rng(5), n_particles=256)
+            seconds[flag] = time.process_time() - start
+        os.environ.pop(BATCH_VARIABLE)
+        ratios[model] = seconds["1"] / seconds["0"]
+        loop, batched = runs["0"], runs["1"]
+        print(f"{model:<6}{seconds['0']:8.1f}{seconds['1']:9.1f}{ratios[model]:7.2f}{len(batched.betas) - 1:8d}"
+              f"{batched.n_evaluations:13d}   {loop.log_z:.4f}, {batched.log_z:.4f}")
+    return ratios
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sets", type=int, default=64)
@@ -101,8 +130,10 @@ def main(argv=None) -> int:
         print("\n".join(f"   {row}" for row in loop_top))
         print("  batched")
         print("\n".join(f"   {row}" for row in batch_top))
+    smc_ratios = evidence_runs(rec, ei, args.n_intervals)
     print(f"\nload at end {tuple(round(x, 2) for x in os.getloadavg())}")
-    tables.record(sets=args.sets, n_intervals=args.n_intervals, ratio_batched_over_loop=ratios)
+    tables.record(sets=args.sets, n_intervals=args.n_intervals, ratio_batched_over_loop=ratios,
+                  smc_ratio_batched_over_loop=smc_ratios)
     return 0
 
 
