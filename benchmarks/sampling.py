@@ -70,9 +70,8 @@ def evaluations_per_second(post, theta) -> float:
 
 def cost_split(post, theta, calls: int = 100) -> None:
     """Print where one evaluation's time goes (cProfile over ``calls`` evaluations): the share of
-    the largest internal times and the Python function calls per evaluation. A likelihood
-    vectorised over walkers could only save the per-call Python overhead; the linear algebra
-    (one eigen-decomposition per parameter set) stays per walker."""
+    the largest internal times and the Python function calls per evaluation, one parameter set at
+    a time (benchmarks/batch.py times batches of sets against this)."""
     import cProfile
     import pstats
 
