@@ -230,3 +230,14 @@ def friction_slide(k, a, n, z, gam, sgn, v, last, free, tables, lin, lagrange, s
         counts[2 if turned != sgn else 3] += 1
         sgn, gam, v, a = turned, -F * turned, 0.0, theta
     return SLID_TO_END, k, a, n, z, gam, sgn, v, 0.0
+
+
+@numba.njit(cache=True)
+def change_and_size(new, old):
+    """max |new - old| and max |new| over two arrays of the same shape, in one pass."""
+    a, b = new.ravel(), old.ravel()
+    change, size = 0.0, 0.0
+    for i in range(a.size):
+        change = max(change, abs(a[i] - b[i]))
+        size = max(size, abs(a[i]))
+    return change, size

@@ -225,12 +225,6 @@ def _powers(base: np.ndarray, count: int) -> np.ndarray:
     return out
 
 
-def _max_abs_difference(a: np.ndarray, b: np.ndarray) -> float:
-    """max |a - b| through one temporary."""
-    d = np.subtract(a, b)
-    return float(np.abs(d, out=d).max())
-
-
 def _half_modes(lam: np.ndarray):
     """Indices of the modes with Im >= 0 and their weights (2 for complex, 1 for real ones).
 
@@ -771,7 +765,7 @@ class _Drag:
     """
 
     def __init__(self, plant: _Plant, rows: np.ndarray, weights: np.ndarray, law, record: bool):
-        self.p, self.rows, self.weights = plant, rows, weights
+        self.p, self.rows = plant, rows
         self.law, self.dlaw = law
         self.keep = record
         p, n, h = plant, plant.n, plant.h
@@ -781,9 +775,12 @@ class _Drag:
         self.beta = p.Vi[self.modes, n:] @ (p.Minv @ (rows.T * weights))     # (m, n_q)
         self.C = (rows @ p.V[n:, self.modes]) * self.twice                  # (n_q, m)
         self.m = lam.size
-        # real forms of the products: forces -> modal inputs, modal states -> velocities
-        self.beta_T = _complex_columns(self.beta.T)
-        self.C_T = _real_rows(self.C).T
+        # the sweeps' products pass through the n degrees of freedom (n < n_q, m): Gauss forces
+        # -> generalized forces -> modal inputs, modal states -> generalized velocities -> Gauss
+        # velocities, in real forms on the complex vectors' memory
+        self.rows_w, self.rows_T = rows * weights[:, None], np.ascontiguousarray(rows.T)
+        self.to_modal = _complex_columns((p.Vi[self.modes, n:] @ p.Minv).T)            # (n, 2m)
+        self.to_velocity = _real_rows(p.V[n:, self.modes] * self.twice).T               # (2m, n)
         # cubic weights for the resolved modes; the linear hold (trapezoidal rule) for modes with
         # |lambda h| > 1, on which a cubic of aliased samples can pump energy (seen at U = 2)
         resolved = np.abs(lam * h) <= _RESOLVED
@@ -794,8 +791,8 @@ class _Drag:
         self.quad = np.array([np.where(resolved, h * w, lw) for w, lw in
                               zip(hold_weights(lam * h, _QUADRATIC_NODES), [zero] + linear)])
         self.E = np.exp(lam * h)
-        # the linear response's velocities at the Gauss points and nodes
-        self.vlin = p.fine(p.linear_spectrum(np.eye(n), order=1)) @ rows.T if p.forced else None
+        # the linear response's generalized velocities at the nodes
+        self.vlin = p.fine(p.linear_spectrum(np.eye(n), order=1)) if p.forced else None
 
     def _states(self, z0: np.ndarray, u: np.ndarray, k: int):
         """States at nodes k+1 .. k+S (S, m) from ``z0`` at node k, and their Gauss-point velocities.
@@ -804,17 +801,17 @@ class _Drag:
         """
         z = np.empty((u.shape[0] - 2, self.m), dtype=complex)
         _kernels.drag_states(z0, u, self.cubic, self.quad, self.E, z)
-        v = z.view(float) @ self.C_T
+        wd = z.view(float) @ self.to_velocity
         if self.vlin is not None:
-            v += self.vlin[k + 1:k + z.shape[0] + 1]
-        return z, v
+            wd += self.vlin[k + 1:k + z.shape[0] + 1]
+        return z, wd @ self.rows_T
 
     def run(self) -> np.ndarray:
         p = self.p
         last = p.n_nodes - 1
         n_q = self.rows.shape[0]
         z = (p.Vi @ p.x0)[self.modes]
-        v0 = (self.vlin[0] if self.vlin is not None else 0.0) + (self.C @ z).real
+        v0 = (self.vlin[0] @ self.rows_T if self.vlin is not None else 0.0) + (self.C @ z).real
         g_nodes = np.zeros((p.n_nodes + 1, n_q))       # row 0 is node -1 (at rest: no force)
         g_nodes[1] = self.law(v0)
         if self.keep:
@@ -831,12 +828,12 @@ class _Drag:
             g = self.law(self._states(z, u, k)[1])
             prev, ok = np.inf, False
             for _ in range(60):
-                np.matmul(g, self.beta_T, out=u.view(float)[2:])
+                np.matmul(g @ self.rows_w, self.to_modal, out=u.view(float)[2:])
                 states, v = self._states(z, u, k)
                 g_new = self.law(v)
-                delta = _max_abs_difference(g_new, g)
+                delta, size = _kernels.change_and_size(g_new, g)
                 self.iterations += 1
-                if delta <= DRAG_RTOL * max(g_new.max(), -g_new.min()) or delta == 0.0:
+                if delta <= DRAG_RTOL * size or delta == 0.0:
                     ok = True
                     break
                 if delta > 0.5 * prev:
@@ -856,11 +853,11 @@ class _Drag:
             block = min(2 * block, _DRAG_BLOCK) if ok else block
         self.final_state = (p.V[:, self.modes] @ (z * self.twice)).real
         self.record = {"v_gauss": v_nodes, "g_gauss": g_nodes[1:]} if self.keep else {}
-        return (g_nodes[1:] * self.weights) @ self.rows
+        return g_nodes[1:] @ self.rows_w
 
     def _modal_input(self, g: np.ndarray) -> np.ndarray:
         """Modal inputs beta g for Gauss forces g (L, n_q)."""
-        return (g @ self.beta_T).view(complex)
+        return (g @ self.rows_w @ self.to_modal).view(complex)
 
     def _newton(self, z0, g_known, k, g_guess, S):
         """The S (<= 2) nodes of a one-step block from state ``z0`` at node k by Newton's method
