@@ -91,7 +91,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
-from scipy import fft, linalg, special
+from scipy import fft, linalg
 
 from bayesbeam.physics.effects.dry_friction import DryFriction
 from bayesbeam.physics.effects.quadratic_drag import QuadraticDrag
@@ -110,8 +110,6 @@ MARGIN = 160
 DRAG_RTOL = 1e-8
 #: nodes per drag block: longer blocks need a few more sweeps, shorter ones more numpy calls
 _DRAG_BLOCK = 256
-_SINC_HALF, _SINC_BETA = 16, 16.0
-_I0_BETA = float(special.i0(_SINC_BETA))
 _WINDOW_MIN, _WINDOW_MAX = 16, 1024
 
 
@@ -322,38 +320,15 @@ class _Plant:
         x = _cyclic_take(fft.irfft(spectrum.T, self.n_fine), self._offset, self.n_nodes)
         return (x * (self.U * np.exp(self.grid.sigma * self.tau))).T
 
-    def coarse(self, spectrum: np.ndarray, factor: int = 2, pad: int = 32):
-        """A signal tabulated at step dt/factor from ``pad`` steps before node 0, for :meth:`at`.
-
-        Cheaper than :meth:`fine` when a signal is read only at a few (event) times.
-        """
-        step = self.grid.dt / factor
-        start = round(self.t_start / step) - pad
-        count = int(np.ceil((self.tau[-1] - self.t_start) / step)) + 2 * pad + 1
-        t = start * step + step * np.arange(count)
-        x = _cyclic_take(fft.irfft(spectrum.T, factor * self.grid.n_fft), start, count)
-        return (x * (factor * np.exp(self.grid.sigma * t))).T, start * step, step
-
-    @staticmethod
-    def at(table, t: float) -> np.ndarray:
-        """Row of a :meth:`coarse` table at time t by a 32-tap Kaiser-windowed sinc (the signal
-        is band-limited to 0.51 fs, a quarter of the table's rate: error ~1e-8 of its peak)."""
-        values, t0, step = table
-        x = (t - t0) / step
-        k0 = int(np.floor(x)) - _SINC_HALF + 1
-        u = x - np.arange(k0, k0 + 2 * _SINC_HALF)
-        w = np.sinc(u) * special.i0(_SINC_BETA * np.sqrt(np.maximum(1 - (u / _SINC_HALF) ** 2, 0)))
-        return (w / _I0_BETA) @ values[k0:k0 + 2 * _SINC_HALF]
-
     def at_time(self, spectrum: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Row at time t of a signal given on the grid's bins (n_bins, ch), and of its rate: the
-        band-limited interpolant that :meth:`fine` and :meth:`coarse` sample, summed directly
-        (exact; one product over the bins, cheaper than a table for a signal read at a few times)."""
+        band-limited interpolant that :meth:`fine` samples, summed directly over the bins (exact;
+        for a signal read at a few times)."""
         grid = self.grid
-        phase = np.exp(2j * np.pi * grid.freq * t)
-        phase[0] *= 0.5
-        sums = np.stack([phase, phase * grid.s]) @ spectrum           # the rate's spectrum is s X
-        return tuple((2.0 / grid.n_fft * np.exp(grid.sigma * t)) * sums.real)
+        kernel = grid.delay(-t)                      # e^{s t} on every bin, the window's e^{sigma t} in it
+        kernel[0] *= 0.5
+        sums = np.stack([kernel, kernel * grid.s]) @ spectrum         # the rate's spectrum is s X
+        return tuple((2.0 / grid.n_fft) * sums.real)
 
     def linear_spectrum(self, C: np.ndarray, order: int = 0) -> np.ndarray:
         """Spectrum of C w^(order) of the linear response to the input, (n_bins, n_rows)."""
@@ -530,22 +505,19 @@ class _Friction:
     def _linear_signals(self):
         """Tip velocity, acceleration and held-tip force of the forced responses, at the nodes."""
         p, e, n = self.p, self.e, self.p.n
-        self._diff = None
+        self._diff_spec = None
         if not p.forced:                   # a release: no forced response
             self.lin = np.zeros((p.n_nodes, 4))
             self._lin_moments = np.zeros((2, p.n_nodes))
-            self._diff_spec = None
             return
-        free = p.linear_spectrum(np.eye(n))                          # w(s) of the linear response
         T = self.T
         qc = self.reduced.transfer(p.s_in, np.eye(n - 1), (T.T @ p.b)[:, None])[:, :, 0] * p.f_in[:, None]
         s = p.s_in[:, None]
         system = p.system
         demand = ((s**2 * qc) @ (e @ system.M @ T) + (s * qc) @ (e @ system.D @ T)
                   + qc @ (e @ system.K @ T) - (e @ p.b) * p.f_in) / float(e @ e)
-        diff = qc @ T.T - free                                        # held minus free response
-        self._diff_spec = diff
-        tip = (free @ e)[:, None]
+        self._held_spec = qc
+        tip = p.linear_spectrum(e[None, :])
         # columns: v_lin, a_lin, held force, u_lin at the tip
         self.lin = p.fine(np.hstack([s * tip, s**2 * tip, demand[:, None], tip]))
         # mean and first moment over every step of the held beam's forced force, from the cubic
@@ -561,32 +533,29 @@ class _Friction:
             return self.lin[k]
         return _kernels.lagrange_row(self.lin, k, theta, _LAGRANGE)
 
-    def _diff_at(self, k: int, theta: float, exact: bool = False):
-        """(w_held - w_free, its rate) of the forced responses at node k + theta.
-
-        ``exact``: summed from the spectrum (0.1 ms), for the first and the last node. The events'
-        reads come from one table at dt/2 (:meth:`_Plant.coarse`, built at the first of them, the
-        cost of about 50 sums), so that every stick and slip of a history converts through the
-        same representation (entering and leaving a stick through two different ones would not
-        cancel their difference).
-        """
-        p, n = self.p, self.p.n
+    def diff_spectrum(self) -> np.ndarray:
+        """Spectrum (n_bins, n) of w_held - w_free, the held minus the free forced response,
+        computed at its first use: a history with no stick never needs it."""
         if self._diff_spec is None:
+            self._diff_spec = self._held_spec @ self.T.T - self.p.linear_spectrum(np.eye(self.p.n))
+        return self._diff_spec
+
+    def _diff_at(self, k: int, theta: float):
+        """(w_held - w_free, its rate) of the forced responses at node k + theta, summed exactly
+        from their spectrum (:meth:`_Plant.at_time`, a few per stick). Zero for a release and at
+        node 0 of a forced record, where both are still at rest (:data:`MARGIN` samples before
+        the first sample)."""
+        p, n = self.p, self.p.n
+        if not p.forced or k + theta == 0.0:
             return np.zeros(n), np.zeros(n)
-        t = p.t_start + (k + theta) * p.h
-        if exact:
-            return p.at_time(self._diff_spec, t)
-        if self._diff is None:
-            self._diff = p.coarse(np.hstack([self._diff_spec, p.s_in[:, None] * self._diff_spec]))
-        x = p.at(self._diff, t)
-        return x[:n], x[n:]
+        return p.at_time(self.diff_spectrum(), p.t_start + (k + theta) * p.h)
 
     # ------------------------------------------------------------------ state conversions
-    def _to_held(self, k: int, theta: float, z: np.ndarray, exact: bool = False):
+    def _to_held(self, k: int, theta: float, z: np.ndarray):
         """Held-tip state (y, U_s) at node k + theta from the free-part modal state z.
 
         The tip velocity left (zero at a located crossing, round-off otherwise) is removed by
-        the constraint's impulse, returned as the third value (N s). ``exact``: see :meth:`_diff_at`.
+        the constraint's impulse, returned as the third value (N s).
         """
         p, e = self.p, self.e
         lin = self._lin_at(k, theta)
@@ -595,14 +564,14 @@ class _Friction:
         impulse = -(lin[0] + e @ wd) / self.mu
         wd = wd + self.Minv_e * impulse
         u_s = lin[3] + e @ w
-        dw, dwd = self._diff_at(k, theta, exact)
+        dw, dwd = self._diff_at(k, theta)
         q = self.T.T @ (w - self.psi * u_s - dw)
         qd = self.T.T @ (wd - dwd)
         return self.Vri @ np.concatenate([q, qd]), u_s, impulse
 
-    def _to_free(self, k: int, theta: float, y: np.ndarray, u_s: float, exact: bool = False) -> np.ndarray:
-        """Free-part modal state z at node k + theta from the held-tip state (``exact``: :meth:`_diff_at`)."""
-        dw, dwd = self._diff_at(k, theta, exact)
+    def _to_free(self, k: int, theta: float, y: np.ndarray, u_s: float) -> np.ndarray:
+        """Free-part modal state z at node k + theta from the held-tip state."""
+        dw, dwd = self._diff_at(k, theta)
         qq = (self.Vr @ y).real
         m = self.T.shape[1]
         w = self.T @ qq[:m] + self.psi * u_s + dw
@@ -657,11 +626,11 @@ class _Friction:
         self.counts = np.zeros(4, dtype=np.int64)          # stick, slip, reversal, tangency
         if self.keep:
             self.rec_u, self.rec_v = np.zeros(p.n_nodes), np.zeros(p.n_nodes)
-        y, u_s, _ = self._to_held(0, 0.0, p.Vi @ p.x0, exact=True)
+        y, u_s, _ = self._to_held(0, 0.0, p.Vi @ p.x0)
         st = {"slip": False, "y": y, "u_s": u_s, "g": lin[0, 2] + self.k_tip * u_s + (self.cg @ y).real,
               "n": 0, "v": 0.0}
         if abs(st["g"]) > F:                              # the initial state cannot be held
-            st.update(z=self._to_free(0, 0.0, y, u_s, exact=True), sgn=-np.sign(st["g"]), slip=True, v=0.0)
+            st.update(z=self._to_free(0, 0.0, y, u_s), sgn=-np.sign(st["g"]), slip=True, v=0.0)
             st["gam"] = -F * st["sgn"]
         k, a, window = 0, 0.0, _WINDOW_MIN
         if self.keep:
@@ -690,7 +659,7 @@ class _Friction:
                     continue
                 window = min(_WINDOW_MAX, max(_WINDOW_MIN, 2 * j))
             k, a = self._hold_step(k, a, st)
-        z = st["z"] if st["slip"] else self._to_free(last, 0.0, st["y"], st["u_s"], exact=True)
+        z = st["z"] if st["slip"] else self._to_free(last, 0.0, st["y"], st["u_s"])
         self.final_state = (p.V @ z).real
         events = dict(zip(("stick", "slip", "reversal", "tangency"), self.counts.tolist()))
         self.record = {"u_tip": self.rec_u, "v_tip": self.rec_v, "events": events} if self.keep else {}
