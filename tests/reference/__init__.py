@@ -4,8 +4,9 @@ It shares nothing with :mod:`bayesbeam.physics`, :mod:`bayesbeam.response` or :m
 (only :mod:`bayesbeam.io`, to write the format):
 
 * space: Hermite cubic Euler-Bernoulli finite elements (:mod:`.fem`), 60 by default, clamped root
-  or root spring (with a root dashpot), tip body, sensor mass, axial load, the paper's four damping
-  mechanisms and the literature's three (fractional, exponential relaxation, Zener's solid);
+  or root spring (with a root dashpot), tip body, sensor mass, axial load, Coulomb friction at the
+  tip (:mod:`.friction`), the paper's four damping mechanisms and the literature's three
+  (fractional, exponential relaxation, Zener's solid);
 * time: exact exponential stepping of the first-order system under a piecewise-cubic (Hermite)
   force on a fine grid (:mod:`.integrate`); time hysteresis as a sum of exponentials that is exact
   in the limit, in the undamped modes (:mod:`.memory`, :mod:`.system`); the literature's
