@@ -210,21 +210,51 @@ def newton_shift(post: LogPosterior, theta: np.ndarray, covariance: np.ndarray, 
 
     Used to compare discretisations: the optimum of a finer model, started from the coarse
     optimum, moves by about covariance @ gradient when the move is small (the regime that matters).
+    A coordinate within one step of its prior's edge (an optimum against the edge: a tip sensor's
+    offset at the tip, a delay at 0) is held there, as the finer optimum is while the likelihood
+    pushes against the edge: its shift is 0 and the others move by the Newton step with it fixed
+    (the conditional covariance).
     """
     d = len(theta)
-    grad = np.array([(post(theta + step * e) - post(theta - step * e)) / (2 * step) for e in np.eye(d)])
+    held = _near_edge(post, theta, step)
+    free = ~held
+    grad = np.array([(post(theta + step * e) - post(theta - step * e)) / (2 * step) if f else 0.0
+                     for e, f in zip(np.eye(d), free)])
     if not np.all(np.isfinite(grad)):
         return np.full(d, np.inf)
-    return covariance @ grad
+    if not held.any():
+        return covariance @ grad
+    cross = covariance[np.ix_(free, held)]
+    conditional = covariance[np.ix_(free, free)] - cross @ np.linalg.solve(covariance[np.ix_(held, held)], cross.T)
+    shift = np.zeros(d)
+    shift[free] = conditional @ grad[free]
+    return shift
+
+
+def _near_edge(post: LogPosterior, theta: np.ndarray, margin: float) -> np.ndarray:
+    """Which coordinates lie within ``margin`` of an edge of their prior's support (log-normal
+    priors have none)."""
+    low, high = _support(post)
+    return (theta - low < margin) | (high - theta < margin)
+
+
+def _support(post: LogPosterior) -> tuple[np.ndarray, np.ndarray]:
+    """The priors' supports in sampling coordinates, (-inf, inf) for the log-normal ones."""
+    bounded = [p.bounds() if p.kind != "lognormal" else (-np.inf, np.inf) for p in post.priors]
+    return np.array([b[0] for b in bounded]), np.array([b[1] for b in bounded])
 
 
 def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4) -> np.ndarray:
     """Inverse of the negative finite-difference Hessian of log p at theta (sampling coordinates).
 
-    Falls back to a diagonal built from the curvature along each axis (or 1e-3^2) where the
-    Hessian is not negative definite, e.g. on a prior boundary.
+    A coordinate within two steps of its prior's edge (an optimum against the edge) is moved two
+    steps inside first, so that no difference steps out of the support: the curvature there is
+    the edge's to O(step). Falls back to a diagonal built from the curvature along each axis (or
+    1e-3^2) where the Hessian is not negative definite.
     """
     d = len(theta)
+    low, high = _support(post)
+    theta = np.where(_near_edge(post, theta, 2 * step), np.clip(theta, low + 2 * step, high - 2 * step), theta)
     f0 = post(theta)
     h = np.zeros((d, d))
     e = np.eye(d) * step

@@ -68,3 +68,45 @@ def test_a_fit_recovers_a_shifted_sensor_within_its_tolerance():
     dx, sd = post.values(optimum.theta)["dx_accel_mid"], float(np.sqrt(optimum.covariance[i, i]))
     assert abs(dx - (truth - stated)) <= 2.58 * sd
     assert sd <= 0.1 * 2 * TOLERANCE / np.sqrt(12)
+
+
+def test_an_optimum_against_the_tip_keeps_its_laplace_covariance_and_refinement_check():
+    """A tip sensor's offset is uniform over [-t, 0]: a sensor truly at the tip puts the optimum on
+    the prior's edge, where central differences step out of the support. The Laplace covariance
+    is then taken two steps (2e-4 m) inside: its Hessian's block of the other parameters is the
+    Hessian of the model whose beam.toml states the sensor 2e-4 m inside, without the offset (the
+    same physics at the same point: 1e-10 of the diagonal scale, observed 4e-14). The refinement
+    check's Newton step holds the offset on the edge (shift 0) and moves the others by the step
+    with the conditional covariance, which is that same model's inverse Hessian: equal to the
+    Newton step of the model without the offset (its gradient at dx = 0 is that model's, bit for
+    bit) with that covariance, to 1e-8 relative (observed 6e-14). Reference q1 recording, true
+    parameters and noise sd; quintic N = 8 against 12."""
+    from bayesbeam.inference.sampler import laplace_covariance, newton_shift
+
+    rec, truth = acceptance.hammer("q1")
+    sd, _ = acceptance.true_noise_sd("q1")
+    config = FitConfig(degree=5, n_intervals=8)
+    values = {**truth, "dx_accel_tip": 0.0, "sigma_accel_tip": sd}
+
+    def posteriors(recording):
+        coarse, finer = (prepare(recording, "q1", config, n).posterior for n in (8, 12))
+        return coarse, finer, coarse.coordinates({n: values[n] for n in coarse.names})
+
+    post, finer, theta = posteriors(replace(rec, setup_keys={"sensor": [{"location_tolerance": TOLERANCE}]}))
+    inside = replace(rec, sensors=(replace(rec.sensors[0], location=rec.sensors[0].location - 2e-4),))
+    plain, _, plain_theta = posteriors(inside)
+    _, stated_finer, _ = posteriors(rec)
+    i = post.names.index("dx_accel_tip")
+    free = [k for k in range(post.ndim) if k != i]
+
+    covariance = laplace_covariance(post, theta)
+    hessian = -np.linalg.inv(covariance)[np.ix_(free, free)]
+    plain_hessian = -np.linalg.inv(laplace_covariance(plain, plain_theta))
+    scale = np.sqrt(np.outer(np.diag(plain_hessian), np.diag(plain_hessian)))
+    assert np.all(np.abs(hessian - plain_hessian) <= 1e-10 * scale)
+    assert 0 < np.sqrt(covariance[i, i]) < TOLERANCE
+
+    shift = newton_shift(finer, theta, covariance)
+    plain_shift = newton_shift(stated_finer, theta[free], np.linalg.inv(-hessian))
+    assert shift[i] == 0.0
+    np.testing.assert_allclose(shift[free], plain_shift, rtol=1e-8)
