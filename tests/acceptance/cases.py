@@ -8,6 +8,12 @@ EI) is centred away from the truth, as it is for a real beam whose modulus comes
 Beams are those of :mod:`tests.inference.cases`, damping and noise those of
 :mod:`tests.reference.recordings` (realistic modal damping ratios of 0.01-1 %): the paper's beam (1 s at 512 Hz, a 4 ms Gaussian hammer pulse at 0.75 m) and an
 aluminium strip with a 50 g tip block (1 s at 1024 Hz, a 1 ms pulse: a hard hammer tip).
+"paper_long" is the paper's beam struck by the hard tip and recorded for 2 s at 1024 Hz: six
+modes in the fitted band instead of four, and mode 1 (3.7 Hz, decaying over about 17 s) seen over
+seven cycles instead of four. Its EI is then determined to 7 ppm, finer than the reference's
+default 60 elements resolve (their h^4 error: an RMS difference from 180 elements of 2.1 % of the
+noise sd, which over 2048 samples can move an estimate by 0.9 sd), so it is simulated on 120
+(0.34 %: at most 0.15 sd).
 Noise: 2 % of each channel's RMS on the sensors, 0.5 % of the peak on the force.
 """
 from __future__ import annotations
@@ -19,13 +25,13 @@ import numpy as np
 
 from bayesbeam.io import Beam, Sensor
 from tests.inference import cases
-from tests.reference import Hammer, Release, record
+from tests.reference import Hammer, Numerics, Release, record
 from tests.reference.recordings import ALU_DAMPING, NOISE, PAPER_DAMPING
 
 #: the beam.toml's modulus over the true one
 NOMINAL_OVER_TRUE = 1.07
 #: damping of each model on each beam (the paper's names, SI units), EI excluded
-DAMPING = {"paper": PAPER_DAMPING, "alu": ALU_DAMPING}
+DAMPING = {"paper": PAPER_DAMPING, "paper_long": PAPER_DAMPING, "alu": ALU_DAMPING}
 #: concealed effects on the paper beam's q1 (the reference's names): a root spring of 100 EI/l
 #: (mode 1 1.9 % low), a 0.5 ms delay of the response channels, a 10 g sensor at the tip
 EFFECTS = {"root_compliance": {"k_theta": 4428.0}, "measurement_delay": {"tau": 5e-4},
@@ -38,9 +44,12 @@ def _nominal(beam: Beam) -> Beam:
 
 def _setting(beam_name: str) -> dict:
     if beam_name == "paper":
-        return {"beam": cases.PAPER_BEAM, "tip": None, "fs": 512.0,
+        return {"beam": cases.PAPER_BEAM, "tip": None, "fs": 512.0, "duration": 1.0,
                 "excitation": Hammer(0.75, peak=20.0, width=0.004, t0=0.04)}
-    return {"beam": cases.ALU_BEAM, "tip": cases.ALU_TIP, "fs": 1024.0,
+    if beam_name == "paper_long":
+        return {"beam": cases.PAPER_BEAM, "tip": None, "fs": 1024.0, "duration": 2.0,
+                "excitation": Hammer(0.75, peak=20.0, width=0.001, t0=0.01), "numerics": Numerics(n_elements=120)}
+    return {"beam": cases.ALU_BEAM, "tip": cases.ALU_TIP, "fs": 1024.0, "duration": 1.0,
             "excitation": Hammer(0.75 * cases.ALU_BEAM.length, peak=20.0, width=0.001, t0=0.01)}
 
 
@@ -57,20 +66,22 @@ def hammer(model: str, beam_name: str = "paper", seed: int = 1, effect: str | No
                    Sensor("disp_mid", 0.5 * beam.length, "displacement", "disp_mid"))
     effects = EFFECTS[effect] if effect else None
     rec = record(_nominal(beam), damping, EI=beam.nominal_EI, tip=s["tip"], excitation=s["excitation"],
-                 fs=s["fs"], duration=1.0, effects=effects, sensors=sensors, noise=NOISE, seed=seed,
+                 fs=s["fs"], duration=s["duration"], effects=effects, sensors=sensors, noise=NOISE, seed=seed,
+                 numerics=s.get("numerics", Numerics()),
                  name=f"{beam_name}_{model}" + (f"_{effect}" if effect else ""))
     return rec, {"EI": beam.nominal_EI, **damping, **(effects or {})}
 
 
 def clean_hammer(model: str, beam_name: str = "paper", changes: dict | None = None, excitation=None,
-                 duration: float = 1.0):
+                 duration: float | None = None):
     """:func:`hammer`'s test without noise (Recording): at the truth, with ``changes`` (EI and
-    damping by name) made to it, or struck by another ``excitation`` for ``duration`` s."""
+    damping by name) made to it, or struck by another ``excitation`` for ``duration`` s (default
+    the test's)."""
     s = _setting(beam_name)
     params = {"EI": s["beam"].nominal_EI, **DAMPING[beam_name][model], **(changes or {})}
     EI = params.pop("EI")
     return record(_nominal(s["beam"]), params, EI=EI, tip=s["tip"], excitation=excitation or s["excitation"],
-                  fs=s["fs"], duration=duration)
+                  fs=s["fs"], duration=duration or s["duration"], numerics=s.get("numerics", Numerics()))
 
 
 def true_noise_sd(model: str, beam_name: str = "paper") -> tuple[float, float]:
