@@ -9,7 +9,10 @@ For each model (a preset or ``+``-joined mechanisms, optionally with effects):
    particles of all repeats are the posterior draws (one "chain" per repeat; R-hat across
    repeats is the convergence check). Repeats that spread by more than
    :data:`EVIDENCE_SD_MAX` are run again from a reference fitted to their posterior particles
-   (:func:`settle`).
+   (:func:`settle`). The repeats run in two waves: a model that the first :data:`FIRST_WAVE`
+   repeats already put decisively behind the leader (:data:`EARLY_STOP_NATS`, :func:`beaten`)
+   gets no more; its summary says so and why. Each SMC stage takes its number of moves from its
+   acceptance rate (:data:`MIN_MOVED`).
 3. **Screens**, each labelled with what it assumes: BIC and the Laplace approximation at the
    optimum, and PSIS leave-future-out over the likelihood's time blocks
    (:mod:`bayesbeam.inference.screens`).
@@ -45,6 +48,18 @@ KASS_RAFTERY = ((5.0, "very strong"), (3.0, "strong"), (1.0, "positive"), (0.0, 
 EVIDENCE_SD_MAX = 1.0
 #: ... or its pooled posterior's R-hat over the repeats exceeds this (settled runs: 1.000-1.030)
 R_HAT_MAX = 1.05
+#: a model's remaining evidence repeats are skipped when it trails the leader by more than this
+#: many nats beyond three standard errors of the difference: a log Bayes factor past 5 nats is
+#: already "very strong" (Kass & Raftery), so the ranking cannot turn on its remaining repeats
+#: (settled repeats spread by 0.02-0.18 nats, see :data:`EVIDENCE_SD_MAX`)
+EARLY_STOP_NATS = 20.0
+#: evidence repeats per model before any is stopped: two give a standard error
+FIRST_WAVE = 2
+#: SMC mutation steps per stage: until a particle has moved at least once with this probability
+#: at the stage's acceptance rate (:mod:`bayesbeam.inference.evidence`, ``min_moved``; PyMC3's
+#: SMC, ``p_acc_rate``): at q3's acceptance of 0.3, 6 steps where three accepted moves per
+#: particle took 11, the same log Z within 0.02 nats and R-hat within 1.02
+MIN_MOVED = 0.85
 
 
 @dataclass
@@ -53,7 +68,10 @@ class CompareConfig:
 
     repeats: independent SMC runs per model (>= 2: their spread is the evidence's uncertainty);
     particles: SMC particles per run (default max(128, 32 x parameters)); replicates: posterior
-    predictive replicates per model; seed: master seed of everything random.
+    predictive replicates per model; seed: master seed of everything random; early_stop: the
+    margin (nats) of :func:`beaten` past which a model's remaining repeats are skipped (None: every
+    model gets all its repeats); min_moved: the SMC's rule for its mutation steps (see
+    :data:`MIN_MOVED`; None: three accepted moves per particle on average).
     """
 
     fit: FitConfig = field(default_factory=FitConfig)
@@ -61,6 +79,8 @@ class CompareConfig:
     particles: int | None = None
     replicates: int = N_REPLICATES
     seed: int = 1
+    early_stop: float | None = EARLY_STOP_NATS
+    min_moved: float | None = MIN_MOVED
 
     def __post_init__(self):
         if self.repeats < 2:
@@ -80,6 +100,7 @@ class ModelResult:
     check: object
     screens: dict
     pointwise: np.ndarray
+    stopped: str | None = None      # why its evidence repeats were stopped early (:func:`beaten`)
 
     @property
     def draws(self) -> np.ndarray:
@@ -102,8 +123,8 @@ def optimise_job(args):
 
 def smc_job(args):
     """Job 2: one SMC run of one model's posterior."""
-    posterior, reference, seed, particles = args
-    return smc(posterior.terms, reference, np.random.default_rng(seed), n_particles=particles)
+    posterior, reference, seed, particles, min_moved = args
+    return smc(posterior.terms, reference, np.random.default_rng(seed), n_particles=particles, min_moved=min_moved)
 
 
 def check_job(args):
@@ -124,13 +145,15 @@ def expand_model_sets(names) -> list[str]:
 
 
 def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, executor=None,
-            log=None, starts: dict | None = None) -> tuple[dict, dict]:
+            log=None, starts: dict | None = None, rivals: dict | None = None) -> tuple[dict, dict]:
     """Compare ``models`` (names, or named sets of :data:`MODEL_SETS`) on ``rec``: ``(results, summary)``.
 
     ``results`` maps each model to its :class:`ModelResult`; ``summary`` is the JSON-ready
     comparison (see :func:`summarise`). ``log``: a callable taking a line of progress, or None.
     ``starts``: model -> parameter values to optimise from as well (see
-    :func:`~bayesbeam.inference.fit.choose_discretisation`).
+    :func:`~bayesbeam.inference.fit.choose_discretisation`). ``rivals``: model -> Evidence of
+    models fitted before, not refitted and not in the results, that may lead when :func:`beaten`
+    decides which repeats to skip.
     """
     config = config or CompareConfig()
     executor = executor or SerialExecutor()
@@ -143,9 +166,10 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
                                           for i, m in enumerate(models)])
     posteriors = {m: problem.posterior for m, (problem, _, _) in zip(models, stage1)}
     say(f"evidence: {len(models) * config.repeats} SMC runs ({config.repeats} per model)")
-    evidences = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,
-                                                                   optimum.covariance), 0)
-                           for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))}, config, seeds[1], executor)
+    evidences, stopped = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,
+                                                                            optimum.covariance), 0)
+                                    for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))},
+                                   config, seeds[1], executor, rivals or {}, say)
     evidences = settle(evidences, posteriors, config, seeds[1], executor, say)
     say("posterior predictive checks")
     checks = executor.map(check_job, [(posteriors[m], evidences[m].samples.reshape(-1, posteriors[m].ndim),
@@ -156,22 +180,70 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
                    "laplace": laplace_log_evidence(optimum),
                    "psis_lfo": psis_lfo(pointwise), "psis_loo": psis_loo(pointwise)}
         results[model] = ModelResult(model, problem, optimum, record, evidences[model], check, screens,
-                                     pointwise)
+                                     pointwise, stopped.get(model))
     summary = summarise(rec, results, time.perf_counter() - started)
     return results, summary
 
 
-def _evidence(jobs: dict, config: CompareConfig, seeds, executor) -> dict:
-    """``config.repeats`` SMC runs per model, combined: ``jobs`` maps a model to (its index, its
-    posterior, the reference, a seed offset); a run's seed is ``(index * 1000 + offset + repeat)``."""
+def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict | None = None,
+              say=None) -> tuple[dict, dict]:
+    """(Evidence per model, why each stopped model was stopped): ``config.repeats`` SMC runs per
+    model, combined. ``jobs`` maps a model to (its index, its posterior, the reference, a seed
+    offset); a run's seed is ``(index * 1000 + offset + repeat)``, so a repeat's run is the same
+    whether or not others were skipped. With ``rivals`` (model -> Evidence of models fitted
+    before; None: no early stop) and ``config.early_stop`` set, the first :data:`FIRST_WAVE`
+    repeats run first and the models :func:`beaten` then get no more."""
+    early = rivals is not None and config.early_stop is not None and config.repeats > FIRST_WAVE
+    first = FIRST_WAVE if early else config.repeats
+    runs = _runs(jobs, range(first), config, seeds, executor)
+    stopped = {}
+    if early:
+        stopped = beaten({**rivals, **{m: combine_runs(r) for m, r in runs.items()}}, config.early_stop,
+                         config.repeats, set(jobs))
+        for m, why in stopped.items():
+            if say:
+                say(f"evidence of {m} {why}")
+        more = _runs({m: job for m, job in jobs.items() if m not in stopped}, range(first, config.repeats),
+                     config, seeds, executor)
+        runs = {m: r + more.get(m, []) for m, r in runs.items()}
+    return {m: combine_runs(r) for m, r in runs.items()}, stopped
+
+
+def _runs(jobs: dict, repeats, config: CompareConfig, seeds, executor) -> dict:
+    """The SMC runs of ``repeats`` (repeat indices) for each model of ``jobs`` (see :func:`_evidence`)."""
     args, owners = [], []
     for m, (i, post, reference, offset) in jobs.items():
         particles = config.particles or max(128, 32 * post.ndim)
-        for r in range(config.repeats):
-            args.append((post, reference, _seed(seeds, i * 1000 + offset + r), particles))
+        for r in repeats:
+            args.append((post, reference, _seed(seeds, i * 1000 + offset + r), particles, config.min_moved))
             owners.append(m)
-    runs = executor.map(smc_job, args)
-    return {m: combine_runs([run for run, o in zip(runs, owners) if o == m]) for m in jobs}
+    runs = executor.map(smc_job, args) if args else []
+    return {m: [run for run, o in zip(runs, owners) if o == m] for m in jobs}
+
+
+def beaten(evidences: dict, margin: float, repeats: int, candidates=None) -> dict:
+    """Models of ``candidates`` (default all) whose remaining evidence repeats cannot change the
+    ranking, each with the reason: model -> text.
+
+    A model is beaten when it trails the leader (the highest log Z of ``evidences``) by more than
+    ``margin`` nats beyond three standard errors of the difference, and both are settled (sd at
+    most :data:`EVIDENCE_SD_MAX`: an unsettled run errs low, so an unsettled model is never stopped,
+    and an unsettled leader stops nothing).
+    """
+    leader = max(evidences, key=lambda m: evidences[m].log_z)
+    top = evidences[leader]
+    if not top.log_z_sd <= EVIDENCE_SD_MAX:
+        return {}
+    out = {}
+    for m, e in evidences.items():
+        if m == leader or (candidates is not None and m not in candidates) or not e.log_z_sd <= EVIDENCE_SD_MAX:
+            continue
+        behind, sd = top.log_z - e.log_z, float(np.hypot(top.log_z_sd, e.log_z_sd))
+        if behind - 3 * sd > margin:
+            out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats: {behind:.1f} +- {sd:.1f} nats behind "
+                      f"{leader}, more than {margin:g} nats beyond three standard errors, so its remaining "
+                      f"repeats could not change the ranking")
+    return out
 
 
 def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, say) -> dict:
@@ -185,8 +257,8 @@ def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, exec
         return evidences
     say(f"evidence not settled for {', '.join(retry)}: a second pass from its posterior particles")
     index = {m: i for i, m in enumerate(evidences)}
-    second = _evidence({m: (index[m], posteriors[m], matched_reference(posteriors[m].priors, evidences[m]), 500)
-                        for m in retry}, config, seeds, executor)
+    second, _ = _evidence({m: (index[m], posteriors[m], matched_reference(posteriors[m].priors, evidences[m]), 500)
+                           for m in retry}, config, seeds, executor)
     return {m: replace(second[m], first_pass=e) if m in second else e for m, e in evidences.items()}
 
 
@@ -211,7 +283,8 @@ def summarise(rec, results: dict, seconds: float) -> dict:
             "mechanisms": [k.name for k in model.mechanisms], "effects": [e.name for e in model.effects],
             "log_evidence": r.evidence.log_z, "log_evidence_sd": r.evidence.log_z_sd,
             "probability": float(p), "log_bayes_factor_vs_best": float(log_z[m] - log_z[best]),
-            "evidence": {k: v for k, v in r.evidence.as_dict().items() if k not in ("log_evidence", "log_evidence_sd")},
+            "evidence": {**{k: v for k, v in r.evidence.as_dict().items() if k not in ("log_evidence", "log_evidence_sd")},
+                         **({"stopped_early": r.stopped} if r.stopped else {})},
             "posterior": posterior_summary(r),
             "ppc": {k: {"p_value": v["p_value"], "observed": v["observed"]} for k, v in r.check.statistics.items()},
             "modes": mode_table(r.check),
@@ -289,6 +362,11 @@ def verdict(ranking, models) -> str:
         if lbf < 3 * sd:
             text.append("That difference is within three standard errors of the evidence estimates: "
                         "more SMC repeats or particles are needed before ranking these two.")
+    stopped = [m for m in ranking if models[m].get("evidence", {}).get("stopped_early")]
+    if stopped:
+        text.append(f"Evidence repeats stopped early for {', '.join(stopped)}: after the first repeats each was "
+                    "so far behind the leading model that its remaining repeats could not change the ranking "
+                    "(margins under evidence.stopped_early).")
     unsettled = [f"{m} ({why})" for m in ranking if (why := unsettled_evidence(models[m]))]
     if unsettled:
         text.append(f"Not settled: {'; '.join(unsettled)}. The SMC runs of such a model disagree, so "

@@ -23,14 +23,17 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
      better (:func:`improved`). Evidence alone could prefer a model that is better on average but
      wrong where it matters.
 
-   Of several candidates that pass, the one with the largest log Bayes factor is added.
+   Of several candidates that pass, the one with the largest log Bayes factor is added. A
+   candidate decisively behind the current model or another candidate after its first SMC
+   repeats gets no more (:func:`bayesbeam.compare.beaten`); its evidence is the mean of those.
 5. **Repeat once** (``rounds = 2``) from the augmented model for a second effect.
 6. **Re-check the damping.** When the baseline was chosen by evidence and effects were added, the
    default damping models are compared again, each with the added effects: the first comparison
    could not see the missing physics, and a damping model that imitates part of it can win there
    (a root spring made q2 beat the true q1 by 361 nats on ``paper_rootcomp_hammer``). The final
    model becomes another damping model + effects only when that model's log evidence beats it by
-   the same decisive margin as an effect needs.
+   the same decisive margin as an effect needs (a damping model decisively behind it after its
+   first repeats gets no more).
 7. **Stand-ins.** An effect whose posterior median lies outside what the recording's stated
    set-up allows (:func:`stand_in`) is reported as a stand-in, "a structural mismatch the
    catalogue cannot name", not as missing physics found: the fit uses its freedom for something
@@ -247,7 +250,7 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)}, 0)
     say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}")
     started = time.perf_counter()
-    results, _ = compare(rec, others, config.compare, executor, log)
+    results, _ = compare(rec, others, config.compare, executor, log, rivals={current.name: current.evidence})
     results[current.name] = current
     summary = summarise_comparison(rec, results, time.perf_counter() - started)
     best = results[summary["best"]]
@@ -395,7 +398,8 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
     """
     specs = [f"{current.name}+{c.effect}" for c in candidates]
     starts = {s: _probe_values(current, c) for s, c in zip(specs, candidates) if c.value is not None}
-    results, _ = compare(rec, specs, config.compare, executor, log, starts=starts)
+    results, _ = compare(rec, specs, config.compare, executor, log, starts=starts,
+                         rivals={current.name: current.evidence})
     return [results[s] for s in specs]
 
 

@@ -14,7 +14,11 @@ alone. Each next :math:`\beta` is chosen by bisection so that the effective samp
 incremental weights is ``target_ess`` x the particle count (Ching & Chen's rule); particles are
 then resampled (systematic) and moved by emcee's differential-evolution ensemble move (which
 uses the particle cloud itself as proposal scale) on :math:`f_{\beta_t}`
-until each has had ``min_accepted`` accepted moves on average. The last stage ends at
+until each has had ``min_accepted`` accepted moves on average, or, with ``min_moved`` set, until
+a particle has moved at least once with probability ``min_moved`` at the stage's acceptance rate
+a, 1 - (1 - a)^steps, and at least :data:`MIN_MOVE_STEPS` (the rule of PyMC3's SMC, its
+``p_acc_rate``): at a = 0.3 and ``min_moved`` = 0.85, 6 steps where three accepted moves take 10.
+The last stage ends at
 :math:`\beta = 1` with a resample and a move, so the particles are posterior draws.
 
 The estimate of :math:`Z` is unbiased; :math:`\log Z` is biased low by about half its variance.
@@ -49,6 +53,8 @@ TARGET_ESS = 0.5
 MIN_ACCEPTED = 3
 #: cap on mutation steps per tempering stage
 MAX_MOVE_STEPS = 60
+#: fewest mutation steps per stage under the ``min_moved`` rule
+MIN_MOVE_STEPS = 2
 #: Student-t degrees of freedom and scale inflation of the Laplace reference
 REFERENCE_DF = 4.0
 REFERENCE_SCALE = 1.5
@@ -188,7 +194,7 @@ class SMCRun:
 
 def smc(terms, reference: Reference, rng: np.random.Generator, *, n_particles: int = 256,
         target_ess: float = TARGET_ESS, min_accepted: float = MIN_ACCEPTED, pool=None,
-        max_stages: int = 200, progress=None) -> SMCRun:
+        max_stages: int = 200, progress=None, min_moved: float | None = None) -> SMCRun:
     """One adaptive SMC run from ``reference`` to the posterior (see module docstring)."""
     started = time.perf_counter()
     theta = reference.sample(rng, n_particles)
@@ -214,7 +220,8 @@ def smc(terms, reference: Reference, rng: np.random.Generator, *, n_particles: i
         keep = _systematic_resample(log_w, rng)
         theta, log_prior, log_lik, log_q = theta[keep], log_prior[keep], log_lik[keep], log_q[keep]
         theta, log_prior, log_lik, log_q, accepted, used = _move(terms, reference, beta, theta, log_prior,
-                                                                 log_lik, log_q, rng, min_accepted, pool)
+                                                                 log_lik, log_q, rng, min_accepted, pool,
+                                                                 min_moved)
         n_eval += used * n_particles
         acceptance.append(accepted)
         if progress is not None:
@@ -256,8 +263,9 @@ def _systematic_resample(log_w, rng) -> np.ndarray:
 BLOBS = [("log_prior", float), ("log_lik", float), ("log_q", float)]
 
 
-def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_accepted, pool):
-    """emcee DE moves on f_beta until min_accepted accepted moves per particle on average.
+def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_accepted, pool, min_moved=None):
+    """emcee DE moves on f_beta until min_accepted accepted moves per particle on average (or
+    the ``min_moved`` rule of the module docstring).
 
     (Not the snooker or stretch moves: after resampling, particles coincide, and a snooker move
     between coinciding particles divides by zero while a stretch move between them cannot move.)
@@ -275,11 +283,17 @@ def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_acc
     while steps < MAX_MOVE_STEPS:
         state = sampler.run_mcmc(state, 1, progress=False)
         steps += 1
-        if np.mean(sampler.acceptance_fraction) * steps >= min_accepted:
+        if _moved_enough(np.mean(sampler.acceptance_fraction), steps, min_accepted, min_moved):
             break
     b = state.blobs
     return state.coords, np.asarray(b["log_prior"]), np.asarray(b["log_lik"]), np.asarray(b["log_q"]), \
         float(np.mean(sampler.acceptance_fraction)), steps
+
+
+def _moved_enough(acceptance: float, steps: int, min_accepted: float, min_moved: float | None) -> bool:
+    if min_moved is None:
+        return acceptance * steps >= min_accepted
+    return steps >= MIN_MOVE_STEPS and 1.0 - (1.0 - acceptance) ** steps >= min_moved
 
 
 # ---------------------------------------------------------------------------- repeated runs

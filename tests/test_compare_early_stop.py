@@ -1,0 +1,111 @@
+"""Early stop of evidence repeats: a model decisively behind the leader after its first repeats gets
+no more; the leader, the ranking and every other model's runs are those of the full comparison.
+
+Tolerances. The runs of models that are not stopped must be bit-identical to the full path's
+(each repeat has its own seed, whatever else ran). Stopping only drops runs, so a stopped
+model's log Z is the mean of its first repeats: the test checks it is that mean exactly.
+"""
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import bayesbeam.compare as cmp
+from bayesbeam.compare import CompareConfig, beaten, compare
+from bayesbeam.executors import SerialExecutor
+from bayesbeam.inference.evidence import combine_runs
+from bayesbeam.inference.fit import FitConfig
+from tests.inference import cases
+
+
+def run(log_z):
+    return SimpleNamespace(log_z=log_z, betas=np.array([0.0, 1.0]), particles=np.zeros((4, 2)),
+                           n_evaluations=4, seconds=0.0)
+
+
+def fake_smc(args):
+    """An SMC run whose log Z is the model's value plus a seed-dependent scatter of sd ``spread``."""
+    post, _, seed, _ = args
+    return run(post.log_z + post.spread * np.random.default_rng(seed).standard_normal())
+
+
+def evidences(jobs, config, monkeypatch, rivals=None):
+    monkeypatch.setattr(cmp, "smc_job", fake_smc)
+    return cmp._evidence(jobs, config, np.random.SeedSequence(4), SerialExecutor(), rivals, None)
+
+
+def jobs_for(values, spread=0.1):
+    return {m: (i, SimpleNamespace(ndim=2, log_z=v, spread=spread), None, 0) for i, (m, v) in enumerate(values.items())}
+
+
+def test_a_model_far_behind_is_stopped_and_the_ranking_and_other_runs_are_unchanged(monkeypatch):
+    """q3 leads q1 by 300 nats and air by 3000: both are stopped after two of three repeats;
+    q3 keeps all three, its runs and every log Z are those of the full path's first repeats."""
+    jobs = jobs_for({"q1": -1100.0, "q3": -765.0, "air": -3750.0})
+    config = CompareConfig(repeats=3)
+    full, none = evidences(jobs, CompareConfig(repeats=3, early_stop=None), monkeypatch, rivals={})
+    early, stopped = evidences(jobs, config, monkeypatch, rivals={})
+    assert none == {}
+    assert sorted(stopped) == ["air", "q1"] and "behind q3" in stopped["q1"] and "2 of 3 repeats" in stopped["air"]
+    assert [r.log_z for r in early["q3"].runs] == [r.log_z for r in full["q3"].runs]
+    for m in ("q1", "air"):
+        assert [r.log_z for r in early[m].runs] == [r.log_z for r in full[m].runs[:2]]
+    assert sorted(early, key=lambda m: early[m].log_z) == sorted(full, key=lambda m: full[m].log_z)
+
+
+def test_models_within_the_margin_keep_all_their_repeats(monkeypatch):
+    """15 nats behind, less than the 20-nat margin: nobody is stopped, both keep three repeats."""
+    out, stopped = evidences(jobs_for({"q1": -780.0, "q3": -765.0}), CompareConfig(repeats=3), monkeypatch,
+                             rivals={})
+    assert stopped == {} and all(len(e.runs) == 3 for e in out.values())
+
+
+def test_the_margin_counts_beyond_three_standard_errors():
+    """22 nats behind with an sd of 0.9 nats each (settled): 22 - 3 x 1.27 = 18.2 < 20, not stopped;
+    the same 22 nats with sd 0.1 each: 22 - 0.4 > 20, stopped."""
+    wide = {"q3": combine_runs([run(-764.1), run(-765.9)]), "q1": combine_runs([run(-786.1), run(-787.9)])}
+    assert beaten(wide, 20.0, 3) == {}
+    narrow = {"q3": combine_runs([run(-764.9), run(-765.1)]), "q1": combine_runs([run(-786.9), run(-787.1)])}
+    assert list(beaten(narrow, 20.0, 3)) == ["q1"]
+
+
+def test_unsettled_models_are_never_stopped_and_an_unsettled_leader_stops_nothing():
+    settled = combine_runs([run(-765.0), run(-765.1)])
+    far = combine_runs([run(-2000.0), run(-2000.1)])
+    unsettled = combine_runs([run(-1500.0), run(-1510.0)])           # sd 5 nats > EVIDENCE_SD_MAX
+    assert beaten({"q3": settled, "air": far, "q2": unsettled}, 20.0, 3) == {"air": beaten(
+        {"q3": settled, "air": far}, 20.0, 3)["air"]}
+    wild_leader = combine_runs([run(-700.0), run(-720.0)])
+    assert beaten({"q3": wild_leader, "air": far}, 20.0, 3) == {}
+
+
+def test_a_rival_fitted_before_can_lead_but_is_never_stopped_or_returned(monkeypatch):
+    """The diagnosis passes the current model's evidence: an augmented model 40 nats below it is
+    stopped; the rival itself is not a job and is not returned."""
+    current = combine_runs([run(-765.0), run(-765.1), run(-764.9)])
+    out, stopped = evidences(jobs_for({"q3+sensor_mass": -805.0}), CompareConfig(repeats=3), monkeypatch,
+                             rivals={"q3": current})
+    assert list(out) == ["q3+sensor_mass"] and list(stopped) == ["q3+sensor_mass"]
+    assert len(out["q3+sensor_mass"].runs) == 2
+
+
+@pytest.fixture(scope="module")
+def real_comparisons():
+    """air and q1 compared on a short simulated q1 recording, with and without early stop."""
+    rec, _ = cases.simulated("q1", seed=3, fs=256.0)
+    base = CompareConfig(FitConfig(n_intervals=6), repeats=3, replicates=10)
+    return [compare(rec, ["air", "q1"], replace(base, early_stop=stop))[1]
+            for stop in (None, cmp.EARLY_STOP_NATS)]
+
+
+def test_on_a_real_comparison_the_leader_keeps_its_repeats_and_the_verdict_says_who_was_stopped(real_comparisons):
+    """air trails q1 by hundreds of nats on a q1 recording: it is stopped after two repeats, the
+    verdict says so, and q1's evidence and the ranking equal the full comparison's exactly."""
+    full, early = real_comparisons
+    assert early["ranking"] == full["ranking"] == ["q1", "air"]
+    assert early["models"]["q1"]["log_evidence"] == full["models"]["q1"]["log_evidence"]
+    assert "stopped_early" not in full["models"]["air"]["evidence"]
+    assert "stopped after 2 of 3 repeats" in early["models"]["air"]["evidence"]["stopped_early"]
+    assert early["models"]["air"]["evidence"]["repeats"] == full["models"]["air"]["evidence"]["repeats"][:2]
+    assert "stopped early for air" in early["verdict"] and "stopped early" not in full["verdict"]
