@@ -27,6 +27,13 @@ On the 4 s, 2048 Hz recording ``data/examples/paper_q3_hammer`` (q3 at its true 
    100 ms), the size of the effect (RMS of y - y_linear over RMS of y), the accuracy at the
    default step (RMS difference to a run with 4x more substeps, relative to the effect's RMS),
    and for friction the number of events.
+   **2b.** The same two effects where a diagnosis meets them: the concealed-effects study's
+   recordings ``alu_quadratic_drag`` and ``alu_dry_friction`` (3 s at 1024 Hz, q1, N = 24, their
+   truth.json parameters): ms per ``simulate`` and per likelihood evaluation (``Likelihood.
+   log_likelihood`` of ``prepare`` at the default band), this module against the baseline, the
+   module as of commit :data:`BASELINE` (before the compiled kernels), loaded from git into the
+   same process; the ratio is baseline / now, measured interleaved in this run, and the largest
+   output difference between the two relative to the signal.
 3. **solve_ivp on the same system** (same M, D, K, the same band-limited force as
    benchmarks/forward.py, started at rest 128 samples before the record): BDF with the exact
    Jacobian for drag; for friction BDF per phase with event location (slip: tip velocity reaches
@@ -73,6 +80,11 @@ LINEAR = (("root_compliance", {"k_theta": 3500.0}), ("sensor_mass", {"m_s": 0.01
           ("axial_load", {"P": 20.0}), ("measurement_delay", {"tau": 0.3 / 2048}))
 NONLINEAR = (("quadratic_drag", {"c_q": 0.02}), ("quadratic_drag", {"c_q": 1.0}),
              ("dry_friction", {"F_c": 0.01}), ("dry_friction", {"F_c": 0.1}))
+#: table 2b: the baseline the compiled integrator is timed against (git commit of bayesbeam/response/
+#: nonlinear.py before it), and the concealed-effects recordings it is timed on
+BASELINE = "04696b9"
+CONCEALED = os.path.join(c.ROOT, "studies", "concealed_effects", "recordings")
+CONCEALED_N = 24
 
 
 # ----------------------------------------------------------------------------- solve_ivp
@@ -373,6 +385,97 @@ def through_passband(displacement, n: int, dt: float) -> np.ndarray:
     return np.fft.irfft(spec, size, axis=0)[PRE * FINE::FINE][:n]
 
 
+def baseline_module():
+    """bayesbeam/response/nonlinear.py as of commit BASELINE, imported under its own name, or the
+    reason it cannot be (no git, no such commit, or an API it needs that the model no longer has)."""
+    import importlib.util
+    import subprocess
+    import tempfile
+    try:
+        source = subprocess.run(["git", "show", f"{BASELINE}:bayesbeam/response/nonlinear.py"], cwd=c.ROOT,
+                                capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError) as err:
+        return f"git show {BASELINE} failed: {err}"
+    path = os.path.join(tempfile.mkdtemp(), "nonlinear_baseline.py")
+    with open(path, "w") as fh:
+        fh.write(source)
+    spec = importlib.util.spec_from_file_location("nonlinear_baseline", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module                 # its dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def interleaved_ms(now, before, repeat: int = 7) -> tuple[float, float]:
+    """Best of ``repeat`` single calls of each (ms), alternating, so both see the same machine load."""
+    best = [np.inf, np.inf]
+    for _ in range(repeat):
+        for i, func in enumerate((now, before)):
+            t0 = c.now()
+            func()
+            best[i] = min(best[i], c.now() - t0)
+    return best[0] * 1e3, best[1] * 1e3
+
+
+def print_concealed() -> None:
+    """Table 2b: the nonlinear effects on the concealed-effects recordings, now against BASELINE."""
+    import json
+
+    from bayesbeam.inference.fit import FitConfig, prepare
+
+    base = baseline_module()
+    print(f"2b. Nonlinear effects on the concealed-effects recordings (q1, N = {CONCEALED_N}, truth.json "
+          f"parameters): ms per call (best of 7, interleaved), baseline = nonlinear.py at {BASELINE}")
+    if isinstance(base, str):
+        print(f"  baseline unavailable: {base}")
+    print(f"{'recording':22} {'sim ms':>8} {'base ms':>8} {'ratio':>6} {'lik ms':>8} {'base ms':>8} {'ratio':>6} "
+          f"{'max dy/y':>9}")
+    for name in ("quadratic_drag", "dry_friction"):
+        folder = os.path.join(CONCEALED, f"alu_{name}")
+        with open(os.path.join(folder, "truth.json")) as fh:
+            truth = json.load(fh)
+        p = {"EI": truth["EI"], **truth["damping"], **truth["effect_parameters"]}
+        rec = load_recording(folder)
+        model = BeamModel(rec, truth["damping_model"], CONCEALED_N, effects=name)
+        lik = prepare(rec, truth["damping_model"], FitConfig(effects=(name,)), CONCEALED_N).likelihood
+        noise = lik.profile_noise(p)
+
+        def simulate(m=model, p=p):
+            return m.simulate(p)
+
+        def evaluate(lik=lik, p=p, noise=noise):
+            return lik.log_likelihood(p, noise)
+        row = {"recording": f"alu_{name}", "parameters": p}
+        if isinstance(base, str):
+            row.update(sim_ms=per_call(simulate, 7), lik_ms=per_call(evaluate, 7), sim_baseline_ms=np.nan,
+                       lik_baseline_ms=np.nan, max_dy_over_y=np.nan)
+        else:
+            y = simulate()
+            row["max_dy_over_y"] = float(np.max(np.abs(y - base.simulate_nonlinear(model, p))) / np.max(np.abs(y)))
+            row["sim_ms"], row["sim_baseline_ms"] = interleaved_ms(simulate, lambda m=model, p=p:
+                                                                   base.simulate_nonlinear(m, p))
+            row["lik_ms"], row["lik_baseline_ms"] = interleaved_ms(evaluate, _with_module(base, evaluate))
+        _record_row("2b", row)
+        print(f"{row['recording']:22} {row['sim_ms']:8.1f} {row['sim_baseline_ms']:8.1f} "
+              f"{row['sim_baseline_ms'] / row['sim_ms']:5.2f}x {row['lik_ms']:8.1f} {row['lik_baseline_ms']:8.1f} "
+              f"{row['lik_baseline_ms'] / row['lik_ms']:5.2f}x {row['max_dy_over_y']:9.1e}")
+    print("ratio = baseline / now; max dy/y = max |y - y_baseline| / max |y| of simulate; lik = the likelihood\n"
+          "at the default band (prepare, FitConfig()), the baseline's through its simulate_nonlinear")
+    print()
+
+
+def _with_module(module, func):
+    """``func`` run with ``BeamModel.simulate``'s nonlinear path taken from ``module``."""
+    def run():
+        saved = nl.simulate_nonlinear
+        nl.simulate_nonlinear = module.simulate_nonlinear
+        try:
+            return func()
+        finally:
+            nl.simulate_nonlinear = saved
+    return run
+
+
 # ----------------------------------------------------------------------------- main
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -442,6 +545,7 @@ def main(argv=None) -> int:
     print("effect = RMS(y - y_linear) / RMS(y); error = RMS(y - y_4U) / RMS(y - y_linear), the\n"
           "discretisation error at the default U measured against 4x more substeps")
     print()
+    print_concealed()
 
     # 3. solve_ivp -----------------------------------------------------------------------
     print(f"3. solve_ivp (BDF, rtol {RTOL:g}) on the same system, first {prefix:g} s "
