@@ -247,7 +247,26 @@ class Likelihood:
     def residual(self, params: dict) -> np.ndarray:
         """Band coordinates of data minus model (forced or released recordings; no latent
         terms): (D, c)."""
-        return self.z_data - self.projection.project(self.model.simulate(params))
+        return self._remembered("residual", params,
+                                lambda: self.z_data - self.projection.project(self.model.simulate(params)))
+
+    def _remembered(self, what: str, params: dict, compute):
+        """``compute()``, or its result from the previous call when that asked for the same ``what``
+        at the same parameters. The optimiser's profiled posterior asks for the noise profile and
+        then the likelihood at each point: the model is evaluated once there, not twice (half the
+        optimiser's time). One result is kept, and not pickled (:meth:`__getstate__`)."""
+        key = (what, tuple(sorted(params.items())))
+        last = self.__dict__.get("_last_evaluation")
+        if last is not None and last[0] == key:
+            return last[1]
+        value = compute()
+        self._last_evaluation = (key, value)
+        return value
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_last_evaluation", None)
+        return state
 
     def log_likelihood(self, params: dict, noise: dict) -> float:
         v = self.variance(noise)
@@ -342,6 +361,10 @@ class Likelihood:
         A free decay's y and Psi cover only the projection's window unless ``whole``: the
         likelihood needs no more, and a long record's modes cost in proportion to its length.
         """
+        return self._remembered(f"latent, whole={whole}", params, lambda: self._latent_terms(params, whole))
+
+    def _latent_terms(self, params, whole: bool):
+        """:meth:`_latent`, computed."""
         if self.free_decay:
             basis = self.model.free_decay_basis(params, slice(None) if whole else self.projection.window)
             psi = self.projection.project(basis) if whole else self.projection.project_window(basis)

@@ -212,3 +212,22 @@ def test_emcee_over_a_pool_evaluates_one_chunk_per_worker(q1_posterior, monkeypa
     monkeypatch.setenv(BATCH_VARIABLE, "0")
     single = run_emcee(post, optimum, np.random.default_rng(8), n_walkers=12, max_steps=30, chunk=30)
     np.testing.assert_allclose(pooled.samples, single.samples, rtol=1e-12, atol=0)
+
+
+def test_the_profiled_posterior_evaluates_the_model_once_per_point(q1_posterior, monkeypatch):
+    """The optimiser's profiled posterior profiles the noise and then evaluates the likelihood at
+    the same model parameters: the model's response is computed once for both (the likelihood keeps
+    its last evaluation), with the value of a likelihood that keeps nothing (exactly: the same
+    arrays), and a new point is computed anew."""
+    post, theta, _ = q1_posterior
+    model = post.likelihood.model
+    calls = []
+    original = model.simulate_with_impulses
+    monkeypatch.setattr(model, "simulate_with_impulses", lambda *a: calls.append(1) or original(*a))
+    k = len(post.model_names)
+    first = post.profiled(theta[:k])
+    assert len(calls) == 1
+    post.likelihood.__dict__.pop("_last_evaluation")
+    assert post.profiled(theta[:k]) == first and len(calls) == 2
+    post.profiled(theta[:k] + 1e-3)
+    assert len(calls) == 3
