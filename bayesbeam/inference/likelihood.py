@@ -51,6 +51,7 @@ Pointwise terms and predictions are conditional on the posterior mean :math:`A^{
 from __future__ import annotations
 
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -250,23 +251,28 @@ class Likelihood:
         return self._remembered("residual", params,
                                 lambda: self.z_data - self.projection.project(self.model.simulate(params)))
 
-    def _remembered(self, what: str, params: dict, compute):
-        """``compute()``, or its result from the previous call when that asked for the same ``what``
-        at the same parameters. The optimiser's profiled posterior asks for the noise profile and
-        then the likelihood at each point: the model is evaluated once there, not twice (half the
-        optimiser's time). One result is kept, and not pickled (:meth:`__getstate__`)."""
-        key = (what, tuple(sorted(params.items())))
-        last = self.__dict__.get("_last_evaluation")
-        if last is not None and last[0] == key:
-            return last[1]
-        value = compute()
-        self._last_evaluation = (key, value)
-        return value
+    @contextmanager
+    def reusing(self):
+        """Within the block, a model evaluation at parameters the block has just evaluated is reused:
+        the optimiser's profiled posterior (:meth:`LogPosterior.profiled`) profiles the noise and then
+        evaluates the likelihood at one point, and simulates once for both, not twice."""
+        self._reused = ()
+        try:
+            yield self
+        finally:
+            self._reused = None
 
-    def __getstate__(self):
-        state = dict(self.__dict__)
-        state.pop("_last_evaluation", None)
-        return state
+    def _remembered(self, what: str, params: dict, compute):
+        """``compute()``, or inside :meth:`reusing` the result of the previous call when that asked
+        for the same ``what`` at the same parameters (one result is kept)."""
+        if getattr(self, "_reused", None) is None:
+            return compute()
+        key = (what, tuple(sorted(params.items())))
+        if self._reused and self._reused[0] == key:
+            return self._reused[1]
+        value = compute()
+        self._reused = (key, value)
+        return value
 
     def log_likelihood(self, params: dict, noise: dict) -> float:
         v = self.variance(noise)

@@ -107,8 +107,9 @@ class LogPosterior:
 
         Used by the optimiser: fewer dimensions and no poorly scaled noise coordinate.
         """
-        full = self.with_profiled_noise(model_theta)
-        return -np.inf if full is None else self(full)
+        with self.likelihood.reusing():          # one model evaluation for the profile and the value
+            full = self.with_profiled_noise(model_theta)
+            return -np.inf if full is None else self(full)
 
     def with_profiled_noise(self, model_theta):
         """theta with the noise at its conditional optimum (:meth:`Likelihood.profile_noise`),

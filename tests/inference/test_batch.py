@@ -216,9 +216,10 @@ def test_emcee_over_a_pool_evaluates_one_chunk_per_worker(q1_posterior, monkeypa
 
 def test_the_profiled_posterior_evaluates_the_model_once_per_point(q1_posterior, monkeypatch):
     """The optimiser's profiled posterior profiles the noise and then evaluates the likelihood at
-    the same model parameters: the model's response is computed once for both (the likelihood keeps
-    its last evaluation), with the value of a likelihood that keeps nothing (exactly: the same
-    arrays), and a new point is computed anew."""
+    the same model parameters: the model's response is computed once for both
+    (``Likelihood.reusing``), and a new point anew; outside ``reusing`` nothing is kept (a repeated
+    call at one point, as a benchmark makes, simulates again). The value is the one of the two
+    evaluations made apart (exactly: the same arrays)."""
     post, theta, _ = q1_posterior
     model = post.likelihood.model
     calls = []
@@ -227,7 +228,9 @@ def test_the_profiled_posterior_evaluates_the_model_once_per_point(q1_posterior,
     k = len(post.model_names)
     first = post.profiled(theta[:k])
     assert len(calls) == 1
-    post.likelihood.__dict__.pop("_last_evaluation")
-    assert post.profiled(theta[:k]) == first and len(calls) == 2
+    full = post.with_profiled_noise(theta[:k])
+    assert post(full) == first and len(calls) == 3
+    post(full)
+    assert len(calls) == 4
     post.profiled(theta[:k] + 1e-3)
-    assert len(calls) == 3
+    assert len(calls) == 5
