@@ -11,8 +11,7 @@ For each model (a preset or ``+``-joined mechanisms, optionally with effects):
    :data:`EVIDENCE_SD_MAX` are run again from a reference fitted to their posterior particles
    (:func:`settle`). The repeats run in two waves: a model that the first :data:`FIRST_WAVE`
    repeats already put decisively behind the leader (:data:`EARLY_STOP_NATS`, :func:`beaten`)
-   gets no more; its summary says so and why. Each SMC stage takes its number of moves from its
-   acceptance rate (:data:`MIN_MOVED`).
+   gets no more; its summary says so and why.
 3. **Screens**, each labelled with what it assumes: BIC and the Laplace approximation at the
    optimum, and PSIS leave-future-out over the likelihood's time blocks
    (:mod:`bayesbeam.inference.screens`).
@@ -55,10 +54,12 @@ R_HAT_MAX = 1.05
 EARLY_STOP_NATS = 20.0
 #: evidence repeats per model before any is stopped: two give a standard error
 FIRST_WAVE = 2
-#: SMC mutation steps per stage: until a particle has moved at least once with this probability
-#: at the stage's acceptance rate (:mod:`bayesbeam.inference.evidence`, ``min_moved``; PyMC3's
-#: SMC, ``p_acc_rate``): at q3's acceptance of 0.3, 6 steps where three accepted moves per
-#: particle took 11, the same log Z within 0.02 nats and R-hat within 1.02
+#: ``CompareConfig.min_moved`` for SMC mutation steps from the acceptance rate: until a particle
+#: has moved at least once with this probability (:mod:`bayesbeam.inference.evidence`; PyMC3's
+#: SMC, ``p_acc_rate``). Not the default: on paper_q3_hammer at 150 Hz it took q3's stages from 11
+#: moves to 6 with the same log Z (-765.21 +- 0.03 against -765.20 +- 0.04), but left q2, three
+#: stages from its reference, 0.50 nats low (-3354.45 +- 0.02 against -3353.95 +- 0.08: 6
+#: combined sd), the lag of particles whose moves do not keep up (benchmarks/compare.py)
 MIN_MOVED = 0.85
 
 
@@ -70,8 +71,8 @@ class CompareConfig:
     particles: SMC particles per run (default max(128, 32 x parameters)); replicates: posterior
     predictive replicates per model; seed: master seed of everything random; early_stop: the
     margin (nats) of :func:`beaten` past which a model's remaining repeats are skipped (None: every
-    model gets all its repeats); min_moved: the SMC's rule for its mutation steps (see
-    :data:`MIN_MOVED`; None: three accepted moves per particle on average).
+    model gets all its repeats); min_moved: None (three accepted SMC moves per particle on
+    average per stage) or the probability of :data:`MIN_MOVED`'s rule.
     """
 
     fit: FitConfig = field(default_factory=FitConfig)
@@ -80,7 +81,7 @@ class CompareConfig:
     replicates: int = N_REPLICATES
     seed: int = 1
     early_stop: float | None = EARLY_STOP_NATS
-    min_moved: float | None = MIN_MOVED
+    min_moved: float | None = None
 
     def __post_init__(self):
         if self.repeats < 2:

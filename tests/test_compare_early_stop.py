@@ -26,7 +26,7 @@ def run(log_z):
 
 def fake_smc(args):
     """An SMC run whose log Z is the model's value plus a seed-dependent scatter of sd ``spread``."""
-    post, _, seed, _ = args
+    post, _, seed, *_ = args
     return run(post.log_z + post.spread * np.random.default_rng(seed).standard_normal())
 
 
