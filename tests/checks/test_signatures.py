@@ -1,28 +1,30 @@
-"""The right catalogue effect ranks first, before anything is fitted, and none on a null recording.
+"""The right catalogue effect ranks first, and is sized, before anything is fitted; none on a null recording.
 
 Recordings and fits are test_discrepancy's: q1 fitted (quintic N = 8) without the effect to the
 independent reference simulator's recording with it (tests/diagnosis_cases.py: paper beam, 2 %
 sensor noise, clean force, fixed seeds). Concealed effects at moderate magnitude: a root spring
 lowering mode 1 by 1.9 %, a 10 g sensor at the tip, a 0.5 ms delay, a 5 N tension (mode 1 +2 %)
-and 50 mN of tip friction (15 mN, 2.4 % of the signal's RMS, is not seen here: Delta chi2 6.7 even
-on data of the fitted model's own, at N = 16).
+and 50 mN of tip friction (8 % of the signal's RMS); and 80 mN of friction, where the response is
+far from linear in F_c.
 
 Tolerances. Ranked first and "supported": Delta chi2 above the F(1, 19) quantile at 0.01 / 6
-candidates, 13.4. The true effects' Delta chi2 here are 43-4130; the runner-up's at most 3 (a
-third of the winner's at most) except for the root spring, whose runner-up, a compressive axial
-load (which also lowers the low modes most), is supported too (ratio 1.3-3.6 over seeds 3-6; the
-spring first in all four): for it only the order is asserted.
+candidates, 13.4. The true effects' Delta chi2 here are 115-4129; the runner-up's at most a
+third of the winner's (the root spring's, a compressive axial load that also lowers the low
+modes most, 24 against 332; the others' at most 3).
 
-The screen's parameter estimate (a feature-space least squares with the baseline re-adjusted by
-Gauss-Newton, not the fit of the augmented model, which comes later) is asked to be within a
-factor 1.5 of the truth (1.2 for the delay, which enters linearly): a screen that names the
-effect and its size is what is needed to choose which augmented models to fit. It holds for the
-delay (0.499 ms) and the tension (5.01 N). It does not for the root spring (24 300 N m/rad against
-4428), the sensor mass (2.4 g against 10 g) and the friction (16 mN against 50 mN), on these
-recordings and on data made by the fitted model itself at N = 16 alike: the grid search runs on
-the signature before the baseline's re-adjustment, whose size (gamma moved by a factor ~50 for the
-sensor mass) the refinement between the grid minimum's neighbours cannot recover. Those three are
-strict expected failures, so that a fix shows.
+The screen's parameter estimate (a feature-space least squares with the baseline's parameters
+re-adjusted at every evaluated value, not the fit of the augmented model, which comes later) is
+asked to be within a factor 1.5 of the truth (1.2 for the delay, which enters the phase linearly
+and needs no re-adjustment): a screen that names the effect and its size is what is needed to
+choose which augmented models to fit and where to start them. The factor leaves room for what
+the screen neglects and the noise: its 90 % intervals are +-7 % (k_theta, m_s) to +-14 % (F_c)
+wide, the fitted baseline is biased by the missing effect (the re-adjustment is a fixed-Jacobian
+trust-region least squares, stopped after 10 evaluations), and friction's features come from the
+data's estimators on a simulation; the estimates here are within 6 % (k_theta 4187 N m/rad
+against 4428, m_s 9.87 g, F_c 52 and 84 mN, tau 0.498 ms, P 5.02 N). The test can fail: sized
+before the baseline re-adjusts, the estimates miss by factors 3 to 5.5 (k_theta 24 300, m_s
+2.4 g, F_c 16 mN), and friction's signature measured from the exact poles' zero gives 80 mN no
+Delta chi2 at all.
 """
 from functools import cache
 
@@ -34,25 +36,39 @@ from bayesbeam.checks.signatures import rank_effects
 from bayesbeam.inference.fit import prepare
 from bayesbeam.inference.sampler import find_optimum
 from tests.checks.test_discrepancy import REPLICATES, fitted, recording
-from tests.diagnosis_cases import CONCEALED, FIT, N_INTERVALS
+from tests.diagnosis_cases import CONCEALED, FIT, N_INTERVALS, reference
 
 #: case -> allowed factor between the screen's estimate and the truth
 FACTOR = {"root_compliance": 1.5, "sensor_mass": 1.5, "measurement_delay": 1.2, "axial_load": 1.5,
-          "dry_friction": 1.5}
-#: the screen's estimate misses by more (module docstring)
-MISSED_SIZE = pytest.mark.xfail(strict=True, reason="the signature screen's estimate of k_theta, m_s and F_c "
-                                                    "is 3-5.5 x off on data the model did not make")
+          "dry_friction": 1.5, "large_friction": 1.5}
+#: tip friction well beyond the linear regime (N)
+LARGE_FRICTION = 0.08
 
 
 @cache
 def ranking(case):
-    post, draws, mismatch = fitted(case)
+    post, draws, mismatch = fitted(case) if case != "large_friction" else fitted_large_friction()
     return rank_effects(post, draws, mismatch)
 
 
+def fitted_large_friction():
+    """(posterior, draws, mismatch) of q1 fitted to the reference recording with LARGE_FRICTION,
+    as test_discrepancy's ``fitted`` does for its cases."""
+    post = prepare(reference((("F_c", LARGE_FRICTION),))[0], "q1", FIT, N_INTERVALS).posterior
+    optimum = find_optimum(post, np.random.default_rng(1), scan_points=81, de_iterations=15)
+    draws = np.random.default_rng(1).multivariate_normal(optimum.theta, optimum.covariance, 200)
+    return post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES)
+
+
 def truth(case) -> float:
+    if case == "large_friction":
+        return LARGE_FRICTION
     (value,) = CONCEALED[case].values()
     return value
+
+
+def effect(case) -> str:
+    return "dry_friction" if case == "large_friction" else case
 
 
 @pytest.mark.parametrize("case", list(FACTOR))
@@ -61,16 +77,14 @@ def test_concealed_effect_ranks_first(case):
     best = result.candidates[0]
     print(f"{case}: {[(c.effect, round(c.delta_chi2, 1)) for c in result.candidates]}; "
           f"{best.parameter} = {best.value:.4g} (90 %: {best.interval_90}), truth {truth(case)}")
-    assert best.effect == case and best.supported and best.within_prior
+    assert best.effect == effect(case) and best.supported and best.within_prior
     assert result.best is best
-    if case != "root_compliance":
-        assert best.delta_chi2 > 3 * result.candidates[1].delta_chi2
+    assert best.delta_chi2 > 3 * result.candidates[1].delta_chi2
 
 
-@pytest.mark.parametrize("case", [pytest.param(c, marks=[] if c in ("measurement_delay", "axial_load") else MISSED_SIZE)
-                                  for c in FACTOR])
+@pytest.mark.parametrize("case", list(FACTOR))
 def test_the_screen_sizes_the_effect(case):
-    best = next(c for c in ranking(case).candidates if c.effect == case)
+    best = next(c for c in ranking(case).candidates if c.effect == effect(case))
     assert 1 / FACTOR[case] < best.value / truth(case) < FACTOR[case], best.value
 
 
