@@ -374,9 +374,14 @@ class Likelihood:
         if self.free_decay:
             basis = self.model.free_decay_basis(params, slice(None) if whole else self.projection.window)
             psi = self.projection.project(basis) if whole else self.projection.project_window(basis)
+            # Each mode's amplitude has a prior giving its column an RMS of 10x the data's. In
+            # units of the column's own RMS that prior is the same for every mode, and a column
+            # that moves nothing in the band (a mode overdamped to nothing within the window,
+            # RMS 0 or denormal) drops out of the marginal instead of carrying an infinite variance.
             col_rms = np.sqrt(np.mean(psi**2, axis=(0, 1)))
-            s2 = (10.0 * self._data_rms / np.maximum(col_rms, np.finfo(float).tiny)) ** 2
-            return np.zeros(basis.shape[:2]), basis, self.z_data, psi, s2
+            scale = np.where(col_rms > np.finfo(float).tiny, col_rms, np.inf)
+            s2 = np.full(col_rms.size, (10.0 * self._data_rms) ** 2)
+            return np.zeros(basis.shape[:2]), basis / scale, self.z_data, psi / scale, s2
         y, basis = self.model.simulate_with_impulses(params, self.force_noise.index)
         z = self.z_data - self.projection.project(y)
         return y, basis, z, self.projection.project(basis), self.force_noise.variance

@@ -5,6 +5,7 @@ round-off, stated per test) except the white-noise sampling check, whose toleran
 the chi-square distribution of a sample variance.
 """
 import json
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -276,6 +277,28 @@ def test_free_decay_marginal_likelihood_equals_dense_gaussian(free_decay, noise)
     assert z.size == 60 and p.shape[1] >= 6
     assert np.linalg.cond(cov) < COND
     assert lik.log_likelihood(params, nz) == pytest.approx(dense, rel=1e-9)
+
+
+def test_a_free_decay_column_that_moves_nothing_drops_out(free_decay, monkeypatch):
+    """A mode overdamped to nothing within the window has a basis column of RMS 0 (or denormal):
+    its amplitude's prior, 10x the data's RMS over the column's, would be infinite. The column
+    carries nothing, so the marginal equals the one without it (relative 1e-12: the same
+    arithmetic on the other columns, reordered), with no overflow warning, and predict() too."""
+    model, proj, params, nz = free_decay
+    lik = Likelihood(model, proj, "white")
+    before, predicted = lik.log_likelihood(params, nz), lik.predict(params, nz)
+    basis = model.free_decay_basis
+
+    def with_dead_columns(values, samples=slice(None)):
+        b = basis(values, samples)
+        return np.concatenate([b, np.zeros(b.shape[:2] + (1,)), 1e-310 * b[:, :, :1]], axis=2)
+
+    monkeypatch.setattr(model, "free_decay_basis", with_dead_columns)
+    dead = Likelihood(model, proj, "white")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert dead.log_likelihood(params, nz) == pytest.approx(before, rel=1e-12)
+        np.testing.assert_allclose(dead.predict(params, nz), predicted, rtol=0, atol=1e-12 * np.abs(predicted).max())
 
 
 def test_free_decay_likelihood_of_a_window_needs_only_the_window(free_decay):
