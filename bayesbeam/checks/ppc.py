@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayesbeam.modal.era import era
+from bayesbeam.modal.era import era, hankel_svd
 from bayesbeam.response.signals import impact_window
 
 #: replicated recordings per model
@@ -54,8 +54,10 @@ class PredictiveCheck:
 
 
 def posterior_predictive_check(posterior, draws: np.ndarray, rng: np.random.Generator,
-                               n_replicates: int = N_REPLICATES) -> PredictiveCheck:
-    """Run the checks of the module docstring for draws (n, ndim) in sampling coordinates."""
+                               n_replicates: int = N_REPLICATES, truncated_era: bool = True) -> PredictiveCheck:
+    """Run the checks of the module docstring for draws (n, ndim) in sampling coordinates.
+
+    ``truncated_era``: passed to :func:`era_modes` (False: the full-SVD reference)."""
     lik = posterior.likelihood
     model, proj = lik.model, lik.projection
     rec = model.recording
@@ -73,9 +75,9 @@ def posterior_predictive_check(posterior, draws: np.ndarray, rng: np.random.Gene
         for name, fn in (("residual_spectrum", _spectrum_statistic), ("ljung_box", _ljung_box)):
             stats[name][0].append(fn(observed - clean, proj, sigma))
             stats[name][1].append(fn(replicate - clean, proj, sigma))
-        rep_modes.append(era_modes(replicate, rec.dt, start_index, proj.i1, f_model))
+        rep_modes.append(era_modes(replicate, rec.dt, start_index, proj.i1, f_model, truncated_era))
         predictions.append(clean)
-    obs_modes = era_modes(observed, rec.dt, start_index, proj.i1, f_model)
+    obs_modes = era_modes(observed, rec.dt, start_index, proj.i1, f_model, truncated_era)
     out = {name: _p_value(np.array(obs), np.array(rep), two_sided=False)
            for name, (obs, rep) in stats.items()}
     rep_modes = np.array(rep_modes)                                  # (S, m, 2)
@@ -161,13 +163,21 @@ def modes_in_band(model, posterior, draws, max_frequency) -> np.ndarray:
     return f[f < 0.9 * max_frequency]
 
 
-def era_modes(y, dt, i0, i1, f_model) -> np.ndarray:
-    """(m, 2): frequency (Hz) and damping ratio of the ERA pole nearest each model mode, or NaN."""
+def era_modes(y, dt, i0, i1, f_model, truncated: bool = True) -> np.ndarray:
+    """(m, 2): frequency (Hz) and damping ratio of the ERA pole nearest each model mode, or NaN.
+
+    ERA runs at order 2 m + 8 and uses only that many leading singular triplets of the Hankel
+    matrix; ``truncated`` computes just those (:func:`bayesbeam.modal.era.hankel_svd` with
+    ``rank``, through the Gram matrix), ``False`` the full SVD, the reference benchmarks/ppc.py
+    and tests/checks/test_ppc.py compare it with. The check calls this once per replicate, so the
+    decomposition is most of its cost.
+    """
     seg = np.asarray(y[i0:i1], float)
     seg = seg / np.maximum(seg.std(axis=0), np.finfo(float).tiny)
     out = np.full((len(f_model), 2), np.nan)
+    order = 2 * len(f_model) + 8
     try:
-        modes = era(seg, dt, order=2 * len(f_model) + 8)
+        modes = era(hankel_svd(seg, rank=order if truncated else None), dt, order=order)
     except (np.linalg.LinAlgError, ValueError):
         return out
     for i, f in enumerate(f_model):

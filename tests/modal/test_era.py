@@ -7,7 +7,7 @@ matplotlib.use("Agg")
 import numpy as np
 import pytest
 
-from bayesbeam.modal.era import era, mac, plot_stabilization, stabilization
+from bayesbeam.modal.era import era, hankel_svd, mac, plot_stabilization, stabilization
 
 F_HZ = np.array([5.0, 23.0, 61.0])  # well separated
 ZETA = np.array([0.005, 0.002, 0.01])  # 0.1-1 %, as in the paper's beam
@@ -109,3 +109,35 @@ def test_mac_is_scale_and_phase_invariant():
 def test_rejects_too_short_records():
     with pytest.raises(ValueError, match="needs"):
         era(np.ones((10, 2)), DT, n_rows=8, n_cols=8)
+
+
+def test_leading_triplets_match_the_full_svd():
+    """``hankel_svd(rank=k)`` (Gram matrix route) against the full SVD, on a noisy 3-channel decay
+    with the order over-specified (20 for 3 modes: 14 directions in the noise floor, where the
+    singular values crowd and the subspace is least well conditioned). The Gram route perturbs
+    the subspace by about eps * sigma_1^2 / (sigma_k^2 - sigma_(k+1)^2); the full SVD's own
+    answers move by about 1e-11 between LAPACK drivers on such decays (benchmarks/ppc.py), so
+    1e-8 relative on frequencies and damping ratios is round-off with a wide margin, while a
+    wrong subspace (an index off by one, a missing Rayleigh-Ritz rotation) moves poles by the
+    noise's own scale, 1e-4 or more."""
+    rng = np.random.default_rng(4)
+    y = _free_decay()
+    y = y + 0.02 * y.std(axis=0) * rng.standard_normal(y.shape)
+    full, leading = hankel_svd(y, n_rows=40), hankel_svd(y, n_rows=40, rank=20)
+    assert leading.S.shape == (20,) and leading.Vt.shape == (20, full.Vt.shape[1])
+    np.testing.assert_allclose(leading.S, full.S[:20], rtol=1e-10)
+    # the factors reproduce H(0) on the subspace: U^T H = S Vt, U orthonormal
+    np.testing.assert_allclose(leading.U.T @ leading.U, np.eye(20), atol=1e-12)
+    a, b = era(full, DT, order=20), era(leading, DT, order=20)
+    assert len(a.frequencies_hz) == len(b.frequencies_hz) >= 3
+    np.testing.assert_allclose(b.frequencies_hz, a.frequencies_hz, rtol=1e-8)
+    np.testing.assert_allclose(b.damping_ratios, a.damping_ratios, rtol=1e-8)
+
+
+def test_leading_triplets_fall_back_to_the_full_svd_below_the_gram_floor():
+    """Noise-free decay, 3 modes: singular values 7 onwards are round-off, which H H^T cannot
+    resolve (its eigenvalues carry errors of eps * sigma_1^2), so rank 20 takes the full SVD:
+    every singular value, the same as without ``rank``."""
+    full, leading = hankel_svd(_free_decay(), n_rows=40), hankel_svd(_free_decay(), n_rows=40, rank=20)
+    np.testing.assert_array_equal(leading.S, full.S)
+    np.testing.assert_allclose(era(leading, DT, order=6).frequencies_hz, F_HZ, rtol=1e-6)
