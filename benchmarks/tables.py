@@ -20,7 +20,7 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 README = HERE / "README.md"
 #: the benchmarks with a block in README.md, in its order
-NAMES = ("forward", "effects", "sampling", "batch", "compare", "diagnose", "basis")
+NAMES = ("forward", "effects", "sampling", "batch", "compare", "diagnose", "basis", "ppc")
 
 sys.path.insert(0, str(HERE.parent))          # the working tree's bayesbeam, even if another copy is installed
 
