@@ -39,7 +39,7 @@ REFERENCE_CONFIG = DiagnoseConfig(CompareConfig(FIT, repeats=2, replicates=20), 
 CONFIG = DiagnoseConfig(CompareConfig(FitConfig(n_intervals=6), repeats=2, replicates=20), replicates=20)
 #: concealed effects and their true values in the reference's names: a root spring of 100 EI/l
 #: (mode 1 1.9 % low), a 0.5 ms delay, a 10 g sensor at the tip, a 5 N tension (mode 1 2 % high),
-#: 50 mN of tip friction (8 % of the signal's RMS; 15 mN is below what the signatures see here)
+#: 50 mN of tip friction (8 % of the signal's RMS)
 CONCEALED = {"root_compliance": {"k_theta": 100 * cases.EI_TRUE}, "measurement_delay": {"tau": 5e-4},
              "sensor_mass": {"m_s": 0.01}, "axial_load": {"P": 5.0}, "dry_friction": {"F_c": 0.05}}
 #: 2 % sensor noise, a clean force channel

@@ -53,7 +53,12 @@ def fitted(case: str):
     The optimum's global stages are shortened (81 EI scan points, 15 differential-evolution
     iterations; test_ppc uses the defaults 321 and 40), as the diagnosis's screens are cheap.
     """
-    post = prepare(recording(case), "q1", FIT, N_INTERVALS).posterior
+    return fit_and_locate(recording(case))
+
+
+def fit_and_locate(rec):
+    """(posterior, draws, mismatch) of q1 fitted to ``rec`` as :func:`fitted` describes."""
+    post = prepare(rec, "q1", FIT, N_INTERVALS).posterior
     optimum = find_optimum(post, np.random.default_rng(1), scan_points=81, de_iterations=15)
     draws = np.random.default_rng(1).multivariate_normal(optimum.theta, optimum.covariance, 200)
     return post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES)

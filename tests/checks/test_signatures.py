@@ -35,7 +35,7 @@ from bayesbeam.checks.discrepancy import locate
 from bayesbeam.checks.signatures import rank_effects
 from bayesbeam.inference.fit import prepare
 from bayesbeam.inference.sampler import find_optimum
-from tests.checks.test_discrepancy import REPLICATES, fitted, recording
+from tests.checks.test_discrepancy import REPLICATES, fit_and_locate, fitted, recording
 from tests.diagnosis_cases import CONCEALED, FIT, N_INTERVALS, reference
 
 #: case -> allowed factor between the screen's estimate and the truth
@@ -54,10 +54,7 @@ def ranking(case):
 def fitted_large_friction():
     """(posterior, draws, mismatch) of q1 fitted to the reference recording with LARGE_FRICTION,
     as test_discrepancy's ``fitted`` does for its cases."""
-    post = prepare(reference((("F_c", LARGE_FRICTION),))[0], "q1", FIT, N_INTERVALS).posterior
-    optimum = find_optimum(post, np.random.default_rng(1), scan_points=81, de_iterations=15)
-    draws = np.random.default_rng(1).multivariate_normal(optimum.theta, optimum.covariance, 200)
-    return post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES)
+    return fit_and_locate(reference((("F_c", LARGE_FRICTION),))[0])
 
 
 def truth(case) -> float:
