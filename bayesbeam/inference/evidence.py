@@ -281,7 +281,9 @@ def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_acc
     state = emcee.State(theta, log_prob=log_f, blobs=blobs)
     steps = 0
     while steps < MAX_MOVE_STEPS:
-        state = sampler.run_mcmc(state, 1, progress=False)
+        # resampled particles coincide by design (the DE move spreads them); emcee's check of the
+        # initial state's condition number would refuse exactly that
+        state = sampler.run_mcmc(state, 1, progress=False, skip_initial_state_check=True)
         steps += 1
         if _moved_enough(np.mean(sampler.acceptance_fraction), steps, min_accepted, min_moved):
             break

@@ -72,6 +72,23 @@ def test_smc_from_a_laplace_reference_matches_and_recovers_the_posterior(linear_
     assert np.all(np.abs(draws.mean(axis=0) - mean) < 4 * np.sqrt(np.diag(cov)) / 30)
 
 
+def test_particles_that_coincide_after_resampling_are_moved_apart(linear_gaussian):
+    """Resampling a peaked stage leaves copies of a few particles: here 32 copies of 3 points in 4
+    dimensions, fewer distinct points than dimensions + 1, so the ensemble spans no volume. The DE
+    move spreads them (a difference of two distinct copies moves a third); emcee's own check of
+    the initial state's condition number must not refuse the ensemble before it can."""
+    from bayesbeam.inference.evidence import _move
+
+    terms, priors, _, mean, cov = linear_gaussian
+    reference = Reference(priors)
+    rng = np.random.default_rng(3)
+    theta = np.repeat(rng.multivariate_normal(mean, cov, 3), [11, 11, 10], axis=0)
+    log_prior, log_lik = np.array([terms(t) for t in theta]).T
+    log_q = reference.log_density(theta)
+    moved = _move(terms, reference, 0.5, theta, log_prior, log_lik, log_q, rng, 3.0, None)[0]
+    assert np.all(np.isfinite(moved)) and len(np.unique(moved, axis=0)) > 3
+
+
 def test_mutation_steps_from_the_acceptance_rate_give_the_same_evidence_with_fewer_evaluations(linear_gaussian):
     """The ``min_moved`` rule (steps until a particle has moved with probability 0.85) against three
     accepted moves per particle: log Z agrees within 3 combined standard errors of the two (each
