@@ -108,20 +108,27 @@ def diagnosis_table(d: dict) -> str:
     return markdown_table(head, rows)
 
 
-def sensor_mass_table(summary: dict) -> str:
-    """Each model's m_s against the range the stated set-up allows a sensor mass: the diagnosis's
-    stand-in rule (:func:`bayesbeam.diagnose.allowed_by_setup`) on this folder's ``recording/``."""
+def setup_table(summary: dict) -> str:
+    """Each model's fitted set-up: m_s against the range the stated set-up allows a sensor mass
+    (the diagnosis's stand-in rule, :func:`bayesbeam.diagnose.allowed_by_setup`, on this folder's
+    ``recording/``), and the free length l and the sensor's offset dx_tip, whose priors are
+    uniform over the stated tolerances (an interval reaching a bound is marked)."""
     from bayesbeam.diagnose import allowed_by_setup
     from bayesbeam.io import load_recording
     from bayesbeam.report.markdown import markdown_table, median_and_interval
 
-    low, high = allowed_by_setup("sensor_mass", load_recording(HERE / "recording"))["m_s"]
+    rec = load_recording(HERE / "recording")
+    low, high = allowed_by_setup("sensor_mass", rec)["m_s"]
+    length, tolerance = rec.beam.length, rec.setup.length_tolerance
     rows = []
     for name in summary["ranking"]:
-        q = summary["models"][name]["posterior"]["m_s"]
-        rows.append([name, median_and_interval(q), "yes" if low <= q["q50"] <= high else "no"])
-    return markdown_table(["model", "m_s posterior median [90 %], kg",
-                           f"median within {low:.4f}-{high:.4f} kg"], rows)
+        post = summary["models"][name]["posterior"]
+        m_s, l, dx = post["m_s"], post["l"], post["dx_tip"]
+        at_bound = l["q95"] > length + 0.99 * tolerance or l["q05"] < length - 0.99 * tolerance
+        rows.append([name, median_and_interval(m_s), "yes" if low <= m_s["q50"] <= high else "no",
+                     median_and_interval(l) + (" *at a bound*" if at_bound else ""), median_and_interval(dx)])
+    return markdown_table(["model", "m_s posterior median [90 %], kg", f"m_s within {low:.4f}-{high:.4f} kg",
+                           f"l, m (stated {length:g} +- {tolerance:g})", "dx_tip, m"], rows)
 
 
 def blocks() -> dict[Path, dict[str, str]]:
@@ -135,7 +142,7 @@ def blocks() -> dict[Path, dict[str, str]]:
         "real-steel-damping": mode_table(summary, "measured_damping_ratio", "predicted_damping_ratio_90", 100.0, ".3f"),
         "real-steel-frequency": mode_table(summary, "measured_frequency_hz", "predicted_frequency_hz_90", 1.0, ".2f"),
         "real-steel-checks": checks_table(summary),
-        "real-steel-sensor-mass": sensor_mass_table(summary),
+        "real-steel-setup": setup_table(summary),
         "real-steel-diagnose": diagnosis_table(diagnosis),
         "real-steel-compare_clamp": ranking_markdown(json.loads((HERE / "compare_clamp" / "comparison.json").read_text())),
         "real-steel-compare_structure": ranking_markdown(json.loads((HERE / "compare_structure" / "comparison.json")

@@ -84,3 +84,14 @@ def test_the_commands_a_study_reruns_are_valid_command_lines(script):
     for name, arguments in _load(script).COMMANDS.items():
         parsed = parser.parse_args(arguments)
         assert parsed.command == arguments[0] and parsed.out, (script, name)
+
+
+def test_the_real_record_study_extends_the_models_its_comparison_ranked_first_and_second():
+    """studies/real_steel_cantilever names the best model of its compare (BEST: the diagnosis and
+    the finer-grid and clamp comparisons start from it) and the runner-up (RUNNER_UP); both must be
+    what the committed comparison.json ranks, or the study's later runs extend the wrong model."""
+    import json
+
+    study = _load("studies/real_steel_cantilever/run.py")
+    ranking = json.loads((ROOT / "studies/real_steel_cantilever/compare/comparison.json").read_text())["ranking"]
+    assert ranking[:2] == [f"{study.BEST}+sensor_mass", f"{study.RUNNER_UP}+sensor_mass"]
