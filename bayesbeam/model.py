@@ -490,16 +490,21 @@ class BeamModel:
         ``values`` (checked by :meth:`values`) supply the delay; the nonlinear integrator adds
         its nonlinear part to this.
         """
-        rows, _ = self.placement(values)
-        return self._output(transfer(system, self.grid, rows, self.load_at(values)), system, values)
+        return self._output(*self._placed_transfer(system, values), values)
 
-    def _output(self, h: np.ndarray, system: SecondOrderSystem, values: dict[str, float]) -> np.ndarray:
-        """:meth:`linear_response` from the transfer function ``h`` already evaluated on the grid."""
-        y = self.grid.samples(h * self._delayed(self.drive, values))
+    def _placed_transfer(self, system: SecondOrderSystem, values: dict[str, float]):
+        """(the transfer function on the grid, a release's static offset (n_sensors,) or None) at
+        values checked by :meth:`values`, with the sensors and the load placed once for both."""
+        rows, load = self.placement(values)[0], self.load_at(values)
         exc = self.recording.excitation
-        if exc.kind == "release":
-            rows, _ = self.placement(values)
-            y += static_offset(system, rows, self.orders, self.load_at(values), exc.tip_load)[None, :]
+        static = static_offset(system, rows, self.orders, load, exc.tip_load) if exc.kind == "release" else None
+        return transfer(system, self.grid, rows, load), static
+
+    def _output(self, h: np.ndarray, static: np.ndarray | None, values: dict[str, float]) -> np.ndarray:
+        """:meth:`linear_response` from :meth:`_placed_transfer`'s transfer function and offset."""
+        y = self.grid.samples(h * self._delayed(self.drive, values))
+        if static is not None:
+            y += static[None, :]
         return y
 
     def simulate_with_impulses(self, params, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -517,8 +522,8 @@ class BeamModel:
             raise ValueError("force-sample responses need a recording with a measured force")
         values = self.values(params)
         system = self._system(values)
-        h = transfer(system, self.grid, self.placement(values)[0], self.load_at(values))
-        y = self.simulate(values) if any(not e.linear for e in self.effects) else self._output(h, system, values)
+        h, static = self._placed_transfer(system, values)
+        y = self.simulate(values) if any(not e.linear for e in self.effects) else self._output(h, static, values)
         columns = unit_sample_responses(self.grid, h * self._delayed(self._unit_drive, values), index)
         return y, columns
 
@@ -621,13 +626,11 @@ class BeamModel:
         """(outputs (n, P, c), unit-sample responses at ``lags`` (len(lags), P, c) or None)."""
         values = [self.values(p) for p in params]
         systems = [self._system(v) for v in values]
-        h = np.stack([transfer(s, self.grid, self.placement(v)[0], self.load_at(v)) for s, v in zip(systems, values)],
-                     axis=1)                                                       # (n_freq, P, c)
+        placed = [self._placed_transfer(s, v) for s, v in zip(systems, values)]
+        h = np.stack([h_set for h_set, _ in placed], axis=1)                          # (n_freq, P, c)
         y = self.grid.samples(h * self._delayed_batch(self.drive, values))
-        exc = self.recording.excitation
-        if exc.kind == "release":
-            y += np.stack([static_offset(s, self.placement(v)[0], self.orders, self.load_at(v), exc.tip_load)
-                           for s, v in zip(systems, values)])[None]
+        if self.recording.excitation.kind == "release":
+            y += np.stack([static for _, static in placed])[None]
         if lags is None:
             return y, None
         unit = h * self._delayed_batch(self._unit_drive, values)
