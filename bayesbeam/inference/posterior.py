@@ -19,6 +19,11 @@ from bayesbeam.inference.priors import Prior
 BATCH_VARIABLE = "BAYESBEAM_BATCH"
 
 
+#: what a likelihood raises where the model cannot be evaluated (an unstable system, a singular
+#: solve): the posterior is -inf there
+UNEVALUABLE = (ValueError, np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError)
+
+
 def batching() -> bool:
     """Whether the samplers evaluate their parameter sets in batches (see :data:`BATCH_VARIABLE`)."""
     return os.environ.get(BATCH_VARIABLE, "1") != "0"
@@ -61,7 +66,7 @@ class LogPosterior:
         params, noise = self.split(theta)
         try:
             value = self.likelihood.log_likelihood(params, noise)
-        except (ValueError, np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+        except UNEVALUABLE:
             return -np.inf
         return value if np.isfinite(value) else -np.inf
 
@@ -98,7 +103,7 @@ class LogPosterior:
         params, noises = zip(*(self.split(t) for t in thetas))
         try:
             values = self.likelihood.log_likelihoods(params, noises)
-        except (ValueError, np.linalg.LinAlgError, FloatingPointError, ZeroDivisionError):
+        except UNEVALUABLE:
             return np.array([self.log_likelihood(t) for t in thetas])
         return np.where(np.isfinite(values), values, -np.inf)
 
