@@ -99,7 +99,8 @@ class Trial:
     log_bayes_factor_sd: float
     decisive: bool
     improved: bool
-    added: bool = False
+    added: bool = False             # added in its round
+    dropped: bool = False           # and dropped after the damping re-check (:func:`prune_added`)
 
 
 @dataclass(frozen=True)
@@ -121,6 +122,9 @@ class DampingRecheck:
     previous: str                   # the final model before the re-check
     switched: bool                  # another damping model is now decisively better
     not_fitted: list = field(default_factory=list)  # NotFitted (round 0): damping models left out
+    dropped: tuple = ()             # added effects the switched damping model does not need (:func:`prune_added`)
+    final: str | None = None        # the final model after :func:`prune_added` (None: not switched)
+    pruning: dict = field(default_factory=dict)     # reduced model -> effect left out, ln B of keeping it, sd, needed
 
     @property
     def best(self) -> str:
@@ -144,7 +148,8 @@ class Diagnosis:
 
     @property
     def added(self) -> list[str]:
-        return [t.effect for t in self.trials if t.added]
+        """The effects in the final model that the diagnosis added."""
+        return [t.effect for t in self.trials if t.added and not t.dropped]
 
     def remaining(self) -> list[dict]:
         """Map regions of the final model that are beam physics (not labelled pickup/non-decaying)
@@ -229,28 +234,38 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     recheck = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
-        recheck = recheck_damping(rec, current, effects + added, config, executor, log)
+        first = {m: results[join_model(m, effects)] for m in DEFAULT_MODELS if join_model(m, effects) in results}
+        recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first)
         not_fitted += recheck.not_fitted
         if recheck.switched:
-            current = recheck.results[recheck.best]
+            current = prune_added(rec, recheck, effects, added, first, config, executor, log)
+            for t in trials:
+                t.dropped = t.effect in recheck.dropped
             mismatch = _locate(current, rng, config)
     return Diagnosis(baseline, baseline_map, rankings, trials, current, mismatch, None if model else summary,
                      time.perf_counter() - started, recheck, not_fitted)
 
 
-def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log) -> DampingRecheck:
+def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log,
+                    first: dict | None = None) -> DampingRecheck:
     """Compare the default damping models + ``effects`` (those that can carry them) with ``current``.
 
     ``current`` (a damping model + the effects, already fitted) is not refitted. The switch needs
     ln B > :data:`DECISIVE` by :data:`DECISIVE_SD` standard errors, the rule that added the effects.
+    ``first``: the first comparison's fits (damping model name -> ModelResult). Each damping model
+    is optimised from its global search and, as well, from its own first optimum with the effects'
+    (and the shared parameters') values of ``current`` (:func:`_recheck_start`): the global
+    search alone can miss the optimum of a model twice as wide as the one it found first.
     """
     say = log or (lambda _text: None)
     known = _optimum_values(current)
-    specs = [join_model(m, effects) for m in DEFAULT_MODELS]
+    specs = {join_model(m, effects): m for m in DEFAULT_MODELS}
     others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)}, 0)
     say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}")
     started = time.perf_counter()
-    results, _ = compare(rec, others, config.compare, executor, log, rivals={current.name: current.evidence})
+    starts = {s: _recheck_start(first[specs[s]], current) for s in others if first and specs[s] in first}
+    results, _ = compare(rec, others, config.compare, executor, log, starts=starts,
+                         rivals={current.name: current.evidence})
     results[current.name] = current
     summary = summarise_comparison(rec, results, time.perf_counter() - started)
     best = results[summary["best"]]
@@ -260,6 +275,53 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     say(f"damping re-check: best {best.name}" + (f", {lbf:.1f} +- {sd:.1f} nats above {current.name}: switched"
                                                  if switched else f"; {current.name} kept"))
     return DampingRecheck(effects, summary, results, current.name, switched, left_out)
+
+
+def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first: dict, config: DiagnoseConfig,
+                executor, log):
+    """The final model after the re-check switched the damping: the added effects judged again.
+
+    Each effect was added by a decisive log Bayes factor against the damping model of the first
+    comparison; part of what it explained there can be that model's wrong damping (a root
+    dashpot makes up for q2's on a beam with q1's). So, by backward elimination, each added
+    effect is left out in turn (the models fitted together, each from the full model's optimum,
+    which nests it; the bare damping model is the first comparison's fit): while some effect's
+    removal costs less than the decisive margin (ln B <= :data:`DECISIVE` by
+    :data:`DECISIVE_SD` standard errors), the one whose removal leaves the highest evidence is
+    dropped. Given effects stay. Returns the final ModelResult and records ``recheck.dropped``
+    and ``recheck.pruning`` (reduced model -> the effect left out, ln B of keeping it, its sd),
+    ``recheck.final`` and the reduced fits in ``recheck.results``.
+    """
+    say = log or (lambda _text: None)
+    damping = next(m for m in DEFAULT_MODELS if join_model(m, recheck.effects) == recheck.best)
+    final, kept = recheck.results[recheck.best], list(added)
+    while kept:
+        reduced = {join_model(damping, given + tuple(e for e in kept if e != left)): left for left in kept}
+        fitted = {first[damping].name: first[damping]} if damping in first else {}
+        to_fit = [spec for spec in reduced if spec not in fitted]
+        say(f"judging {', '.join(kept)} again with {damping}: {', '.join(reduced)}")
+        known = _optimum_values(final)
+        results, _ = compare(rec, to_fit, config.compare, executor, log, starts={s: known for s in to_fit},
+                             rivals={final.name: final.evidence})
+        fitted.update(results)
+        recheck.results.update(results)
+        costs = {}
+        for spec, left in reduced.items():
+            lbf = final.evidence.log_z - fitted[spec].evidence.log_z
+            sd = float(np.hypot(final.evidence.log_z_sd, fitted[spec].evidence.log_z_sd))
+            needed = lbf - DECISIVE_SD * sd > DECISIVE
+            recheck.pruning[spec] = {"without": left, "log_bayes_factor": float(lbf), "sd": sd, "needed": bool(needed)}
+            if not needed:
+                costs[spec] = lbf
+        if not costs:
+            break
+        spec = min(costs, key=costs.get)
+        say(f"dropped {reduced[spec]}: with {damping} it is not needed (ln B {costs[spec]:.1f} nats)")
+        kept.remove(reduced[spec])
+        recheck.dropped += (reduced[spec],)
+        final = fitted[spec]
+    recheck.final = final.name
+    return final
 
 
 def too_slow(rec, spec: str, known: dict) -> str | None:
@@ -308,6 +370,13 @@ def _optimum_values(result) -> dict:
     """The fitted model's parameters (by name) at its optimum."""
     post = result.problem.posterior
     return {n: v for n, v in post.split(result.optimum.theta)[0].items() if n in post.model_names}
+
+
+def _recheck_start(damping, current) -> dict:
+    """Values to optimise ``damping`` + the effects of ``current`` from: ``damping``'s own optimum
+    (a first-comparison fit) for its mechanisms' parameters, ``current``'s for the rest (EI, the
+    set-up's nuisances and the effects, which ``current`` fitted together)."""
+    return {**_optimum_values(damping), **_optimum_values(current)}
 
 
 def _probe_values(current, candidate) -> dict:
@@ -475,7 +544,8 @@ def summarise(d: Diagnosis) -> dict:
         "not_fitted": [{"round": n.round, "model": n.model, "reason": n.reason} for n in d.not_fitted],
         "damping_recheck": None if d.recheck is None else {
             "effects": list(d.recheck.effects), "best": d.recheck.best, "previous": d.recheck.previous,
-            "switched": d.recheck.switched, "models": _evidence_table(d.recheck.summary)},
+            "switched": d.recheck.switched, "models": _evidence_table(d.recheck.summary),
+            "dropped": list(d.recheck.dropped), "pruning": d.recheck.pruning, "final": d.recheck.final},
         "seconds": round(d.seconds, 1),
     }
 
@@ -569,7 +639,8 @@ def _trial_entry(t: Trial, signature) -> dict:
             "parameters": parameters, "stand_in": stand_in(t.effect, parameters, t.result.problem.model.recording),
             "rms_standardized_residual": t.mismatch.rms_standardized_residual, "flags": flags(t.mismatch),
             "noise": t.mismatch.noise,
-            "decisive": t.decisive, "map_improved": t.improved, "added": t.added,
+            "decisive": t.decisive, "map_improved": t.improved, "added": t.added and not t.dropped,
+            "dropped": t.dropped,
             "signature": None if signature is None else signature.to_dict()}
 
 
@@ -593,11 +664,12 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     verdicts = [stand_in(t.effect, summary, rec) for t, summary in zip(d.trials, parameters)]
     for t, summary in zip(d.trials, parameters):
         params = _estimates(summary)
-        verdict = "added" if t.added else "not added: " + _refusal(t, d.trials)
+        verdict = ("added, then dropped after the damping re-check" if t.dropped else
+                   "added" if t.added else "not added: " + _refusal(t, d.trials))
         text.append(f"Round {t.round}, {t.effect}: log Bayes factor {t.log_bayes_factor:.1f} +- "
                     f"{t.log_bayes_factor_sd:.2g} nats against {d.chain()[t.round - 1][0].name}, RMS standardized residual "
                     f"{t.mismatch.rms_standardized_residual:.2f}, {flags(t.mismatch)} flag(s); {params}: {verdict}.")
-    found = [t.effect for t, verdict in zip(d.trials, verdicts) if t.added and not verdict]
+    found = [t.effect for t, verdict in zip(d.trials, verdicts) if t.effect in d.added and not verdict]
     if d.added:
         text.append(("Missing physics found: " + " and ".join(found) if found else
                      "No missing physics the set-up allows was found") + ". The fit improved from RMS "
@@ -605,7 +677,8 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
                     f"from {d.baseline.evidence.log_z:.1f} to {d.final.evidence.log_z:.1f}.")
     else:
         text.append("No catalogue effect explains the mismatch.")
-    text += [_stand_in_sentence(t.effect, verdict) for t, verdict in zip(d.trials, verdicts) if t.added and verdict]
+    text += [_stand_in_sentence(t.effect, verdict) for t, verdict in zip(d.trials, verdicts)
+             if t.effect in d.added and verdict]
     text += [_stand_in_sentence(effect, verdict) for effect, verdict in given_stand_ins(d).items()]
     if d.not_fitted:
         text.append("Not fitted: " + "; ".join(f"{n.model} ({n.reason})" for n in d.not_fitted) + ".")
@@ -650,13 +723,25 @@ def _recheck_sentence(r: DampingRecheck) -> str:
     best, previous = models[r.best], models[r.previous]
     head = f"With {' and '.join(r.effects)} modelled, the default damping models were compared again: "
     if r.switched:
-        final = r.results[r.best]
+        final = r.results[r.final or r.best]
         names = {p for e in final.problem.model.effects for p in e.parameters}
         effect_estimates = _estimates({k: v for k, v in posterior_summary(final).items() if k in names})
         return (head + f"{r.best} is preferred over {r.previous} by {best['log_evidence'] - previous['log_evidence']:.1f} "
                 f"nats (decisive), so the damping verdict changes to {r.best}: the first comparison was misled "
-                f"by the missing physics. In {r.best}: {effect_estimates}.")
+                f"by the missing physics." + _pruning_sentence(r) + f" In {final.name}: {effect_estimates}.")
     if r.best == r.previous:
         return head + f"{r.previous} stays the best (posterior probability {previous['probability']:.3f})."
     return (head + f"{r.best} scores {best['log_evidence'] - previous['log_evidence']:.1f} nats above {r.previous}, "
             f"not decisive: {r.previous} is kept.")
+
+
+def _pruning_sentence(r: DampingRecheck) -> str:
+    """The added effects judged again with the new damping model (:func:`prune_added`), in words."""
+    if not r.pruning:
+        return ""
+    judged = "; ".join(f"without {v['without']} ({spec}) {'costs' if v['log_bayes_factor'] > 0 else 'gains'} "
+                       f"{abs(v['log_bayes_factor']):.1f} +- {v['sd']:.1f} nats: {'needed' if v['needed'] else 'not needed'}"
+                       for spec, v in r.pruning.items())
+    dropped = (f" Dropped: {' and '.join(r.dropped)}, which only made up for the first damping model."
+               if r.dropped else " Every added effect stays.")
+    return f" Each added effect judged again with the new damping model: {judged}.{dropped}"

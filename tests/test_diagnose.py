@@ -214,6 +214,75 @@ def test_the_damping_recheck_switches_only_on_decisive_evidence(monkeypatch):
     assert not recheck.switched and recheck.best == "q2+root_compliance"
 
 
+def _fit(name, log_z, values):
+    """A fitted model's stand-in: its name, evidence and optimum (parameter values by name)."""
+    posterior = SimpleNamespace(split=lambda theta: (dict(values), {}), model_names=tuple(values))
+    return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=0.1),
+                           problem=SimpleNamespace(posterior=posterior), optimum=SimpleNamespace(theta=None))
+
+
+def test_the_recheck_starts_each_damping_model_from_its_first_fit(monkeypatch):
+    """A damping model + the added effects nests the damping model of the first comparison, so its
+    re-check starts from that fit's damping parameters with the current model's EI and effect values
+    (q1+root_compliance+root_damping's global search alone ended 800 nats below q2's on
+    paper_rootcomp_hammer). plumbing: compare is replaced by a recorder of its starts."""
+    import bayesbeam.diagnose as dg
+
+    starts = {}
+
+    def fake_compare(rec, models, config, executor, log, **options):
+        starts.update(options["starts"])
+        return {m: _fit(m, -100.0, {}) for m in models}, None
+
+    monkeypatch.setattr(dg, "compare", fake_compare)
+    monkeypatch.setattr(dg, "summarise_comparison", lambda rec, results, s: {
+        "best": "q2+root_compliance", "models": {}})
+    monkeypatch.setattr(dg, "too_slow", lambda *args: None)
+    current = _fit("q2+root_compliance", -90.0, {"EI": 47.0, "alpha": 0.1, "beta": 30.0, "k_theta": 3500.0})
+    first = {"q1": _fit("q1", -500.0, {"EI": 44.0, "cdI": 2e-5, "gamma": 0.1}),
+             "q2": _fit("q2", -400.0, {"EI": 44.5, "alpha": 0.2, "beta": 10.0})}
+    dg.recheck_damping(None, current, ("root_compliance",), dg.DiagnoseConfig(), None, None, first=first)
+    assert starts["q1+root_compliance"] == {"EI": 47.0, "cdI": 2e-5, "gamma": 0.1, "alpha": 0.1, "beta": 30.0,
+                                            "k_theta": 3500.0}
+    assert set(starts) == {"q1+root_compliance"}     # the others had no first fit here
+
+
+def _prune(monkeypatch, log_z: dict):
+    """prune_added after a re-check that switched from q2 + both effects to q1 + both, with compare's
+    fits replaced by results of the given log evidences (the bare q1 is the first comparison's)."""
+    import bayesbeam.diagnose as dg
+
+    monkeypatch.setattr(dg, "compare", lambda rec, models, *a, **options: (
+        {m: _fit(m, log_z[m], {"EI": 44.0}) for m in models}, None))
+    full = "q1+root_compliance+root_damping"
+    recheck = dg.DampingRecheck(("root_compliance", "root_damping"), {"best": full}, {full: _fit(full, log_z[full], {"EI": 44.0})},
+                                "q2+root_compliance+root_damping", True)
+    final = dg.prune_added(None, recheck, (), ("root_compliance", "root_damping"), {"q1": _fit("q1", log_z["q1"], {})},
+                           dg.DiagnoseConfig(), None, None)
+    return final, recheck
+
+
+def test_effects_that_made_up_for_the_first_damping_model_are_dropped(monkeypatch):
+    """paper_rootcomp_hammer's pattern: a root dashpot joined q2 to make up for q2's wrong damping;
+    once the re-check switches to q1, leaving the dashpot out costs nothing (ln B of keeping it
+    1 nat, not decisive), so it is dropped, while the spring stays (q1 alone is 800 nats behind).
+    When both are needed (each costs 50 nats) nothing is dropped."""
+    from bayesbeam.diagnose import _pruning_sentence
+
+    log_z = {"q1+root_compliance+root_damping": -100.0, "q1+root_compliance": -99.0, "q1+root_damping": -400.0,
+             "q1": -900.0}
+    final, recheck = _prune(monkeypatch, log_z)
+    assert final.name == recheck.final == "q1+root_compliance" and recheck.dropped == ("root_damping",)
+    assert recheck.pruning["q1+root_compliance"]["needed"] is False
+    assert recheck.pruning["q1+root_damping"]["needed"] and recheck.pruning["q1"]["needed"]
+    assert "Dropped: root_damping" in _pruning_sentence(recheck)
+
+    log_z.update({"q1+root_compliance": -150.0, "q1+root_damping": -150.0})
+    final, recheck = _prune(monkeypatch, log_z)
+    assert final.name == "q1+root_compliance+root_damping" and recheck.dropped == ()
+    assert "Every added effect stays" in _pruning_sentence(recheck)
+
+
 def test_the_recheck_leaves_out_models_that_cannot_carry_the_effects(monkeypatch):
     """Drag (nonlinear) cannot go with q2's memory: the re-check fits the four others."""
     from bayesbeam.diagnose import combinable

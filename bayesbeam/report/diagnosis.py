@@ -82,7 +82,10 @@ def _summary_section(summary) -> str:
     if recheck and recheck["switched"]:
         out.append(f"<p>With {esc(' and '.join(recheck['effects']))} in every model the damping models were compared "
                    f"again, and the damping verdict changed from {esc(recheck['previous'])} to "
-                   f"<b>{esc(recheck['best'])}</b> (see <a href=\"#candidates\">Candidates and decisions</a>).</p>")
+                   f"<b>{esc(recheck['best'])}</b>"
+                   + (f"; with it, {esc(' and '.join(recheck['dropped']))} no longer earned a place and "
+                      f"{'was' if len(recheck['dropped']) == 1 else 'were'} dropped" if recheck.get("dropped") else "")
+                   + ' (see <a href="#candidates">Candidates and decisions</a>).</p>')
     out.append('<p>Each candidate tried, the decision on it and why, the models not fitted and why: '
                '<a href="#candidates">Candidates and decisions</a>.</p>')
     if summary["not_beam_physics"]:
@@ -379,7 +382,17 @@ def _candidates_section(d, summary) -> str:
                    f"compared again, each with the added effects. Final damping: <b>{esc(recheck['best'] if recheck['switched'] else recheck['previous'])}</b>"
                    f"{' (switched: decisive evidence)' if recheck['switched'] else ''}.</p>"
                    + _comparison_table(recheck["models"]))
+    if recheck and recheck.get("pruning"):
+        out.append("<h3>Added effects judged again with the new damping model</h3><p>Each added effect left out in "
+                   "turn; one whose log Bayes factor is not decisive is dropped (final model: "
+                   f"<b>{esc(recheck['final'])}</b>).</p>" + _pruning_table(recheck["pruning"]))
     return "".join(out)
+
+
+def _pruning_table(pruning: dict) -> str:
+    rows = [[esc(spec), esc(v["without"]), f"{v['log_bayes_factor']:.1f} &plusmn; {v['sd']:.1f}", _yes(v["needed"])]
+            for spec, v in pruning.items()]
+    return table(["model", "effect left out", "ln B of keeping it [nats]", "needed"], rows, text_columns=2)
 
 
 def _ranking_part(round_, model, ranking) -> str:
@@ -412,7 +425,7 @@ def trials_table(d) -> str:
                      flag(f"{t.log_bayes_factor:.1f} &plusmn; {t.log_bayes_factor_sd:.1f}", not t.decisive),
                      f"{before.rms_standardized_residual:.3f} &rarr; {t.mismatch.rms_standardized_residual:.3f}",
                      f"{flags(before)} &rarr; {flags(t.mismatch)}", _yes(t.decisive), _yes(t.improved),
-                     "<b>added</b>" if t.added else "no"])
+                     _added_cell(t)])
     head = ["round", "model", "against", "ln B [nats]", "RMS standardized residual", "flags", "decisive",
             "map improved", "added"]
     return table(head, rows, text_columns=3)
@@ -435,7 +448,7 @@ def _comparison_table(models) -> str:
 # ---------------------------------------------------------------------------- the added effect
 def _effect_section(d, summary) -> str:
     out = [h2("effect", SECTIONS)]
-    added = [t for t in d.trials if t.added]
+    added = [t for t in d.trials if t.effect in d.added]
     if not added:
         out.append("<p>No effect was added.</p>")
     for t in added:
@@ -498,7 +511,7 @@ def effect_table(d, summary) -> str:
             screen = c is not None and c.parameter == name
             rows.append([esc(t.effect), esc(name), esc(q["unit"]), *_posterior_cells(q),
                          _value(c.value, "") if screen else "n/a", _interval(c.interval_90) if screen else "n/a",
-                         "<b>added</b>" if t.added else "no"])
+                         _added_cell(t)])
     head = ["effect", "parameter", "unit", "posterior median", "90% interval", "mean &plusmn; sd", "R-hat",
             "signature screen", "screen 90% interval", "added"]
     return table(head, rows, text_columns=3)
@@ -509,6 +522,11 @@ def _posterior_cells(q: dict) -> list[str]:
     """Median, 90% interval, mean +- sd and R-hat (flagged) of one parameter's posterior summary."""
     return [f"{q['q50']:.4g}", _interval([q["q05"], q["q95"]]), f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}",
             flag(f"{q['r_hat']:.3f}", round(q["r_hat"], 3) > RHAT_FLAG)]
+
+
+def _added_cell(trial) -> str:
+    """The decision on a trial in a table cell: added, added and dropped after the re-check, or no."""
+    return "added, then dropped" if trial.dropped else "<b>added</b>" if trial.added else "no"
 
 
 def _value(value, unit) -> str:

@@ -157,6 +157,18 @@ def test_models_not_fitted_and_the_damping_recheck_are_shown():
     recheck = part[part.index("<h3>Damping re-checked with root_compliance</h3>"):]
     assert "Final damping: <b>q1+root_compliance</b> (switched" in recheck
     assert "q1+root_compliance" in body_rows(recheck)[0]
+    assert "judged again" not in part            # nothing pruned: no table
+    # added effects judged again with the new damping: the dropped one is named, the table shows both
+    summary["damping_recheck"] |= {"dropped": ["root_damping"], "final": "q1+root_compliance", "pruning": {
+        "q1+root_compliance": {"without": "root_damping", "log_bayes_factor": -1.0, "sd": 0.1, "needed": False},
+        "q1+root_damping": {"without": "root_compliance", "log_bayes_factor": 300.0, "sd": 0.1, "needed": True}}}
+    text = render(d, summary)
+    assert "root_damping no longer earned a place and was dropped" in section(text, "summary")
+    pruned = section(text, "candidates")
+    pruned = pruned[pruned.index("<h3>Added effects judged again with the new damping model</h3>"):]
+    rows = body_rows(pruned)
+    assert "root_damping" in rows[0] and "-1.0" in rows[0] and rows[0].endswith("<td>no</td>")
+    assert "300.0" in rows[1] and rows[1].endswith("<td>yes</td>")
     # a switched re-check shows the final model's posterior (its effect estimate is no trial's)
     from dataclasses import replace
     from types import SimpleNamespace
