@@ -33,7 +33,8 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
    (a root spring made q2 beat the true q1 by 361 nats on ``paper_rootcomp_hammer``). The final
    model becomes another damping model + effects only when that model's log evidence beats it by
    the same decisive margin as an effect needs (a damping model decisively behind it after its
-   first repeats gets no more).
+   first repeats gets no more). After a switch the added effects are judged again with the new
+   damping model, and one it does not need is dropped (:func:`prune_added`).
 7. **Stand-ins.** An effect whose posterior median lies outside what the recording's stated
    set-up allows (:func:`stand_in`) is reported as a stand-in, "a structural mismatch the
    catalogue cannot name", not as missing physics found: the fit uses its freedom for something
