@@ -61,13 +61,14 @@ def runs(summary: dict) -> int:
 
 
 def model_table(base: dict, new: dict) -> list[str]:
-    lines = [f"{'model':12s} {'baseline log Z':>18s} {'current log Z':>18s} {'diff/sd':>8s}  stopped early"]
+    head = f"{'model':12s} {'N':>3s} {'baseline log Z':>18s} {'N':>3s} {'current log Z':>18s} {'diff/sd':>8s}"
+    lines = [head + "  stopped early"]
     for m in base["ranking"]:
         b, n = base["models"][m], new["models"][m]
         sd = np.hypot(b["log_evidence_sd"], n["log_evidence_sd"])
         stopped = n["evidence"].get("stopped_early", "")
-        lines.append(f"{m:12s} {b['log_evidence']:10.2f} +- {b['log_evidence_sd']:4.2f} "
-                     f"{n['log_evidence']:10.2f} +- {n['log_evidence_sd']:4.2f} "
+        lines.append(f"{m:12s} {b['n_intervals']:3d} {b['log_evidence']:10.2f} +- {b['log_evidence_sd']:4.2f} "
+                     f"{n['n_intervals']:3d} {n['log_evidence']:10.2f} +- {n['log_evidence_sd']:4.2f} "
                      f"{(n['log_evidence'] - b['log_evidence']) / sd:8.2f}  {stopped.split(':')[0]}")
     return lines
 
@@ -77,24 +78,28 @@ def main(argv=None) -> int:
     parser.add_argument("--max-frequency", type=float, default=None,
                         help="top of the fitted band (Hz; default 0.38 fs as in compare)")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--degree", type=int, default=None,
+                        help="the current path's spline degree (default: FitConfig's; the baseline keeps cubics)")
     parser.add_argument("--min-moved", type=float, default=None,
                         help="the current path's CompareConfig.min_moved (default: compare's default)")
     parser.add_argument("--tables", action="store_true", help="only re-render README.md's block from benchmarks/results/compare.json")
     args = parser.parse_args(argv)
     rec = load_recording(EXAMPLE)
-    current = CompareConfig(FitConfig(max_frequency=args.max_frequency), repeats=args.repeats)
+    cubic = FitConfig(max_frequency=args.max_frequency, degree=3)
+    current = CompareConfig(replace(cubic, degree=args.degree or FitConfig.degree), repeats=args.repeats)
     if args.min_moved is not None:
         current = replace(current, min_moved=args.min_moved)
-    baseline = replace(current, early_stop=None, min_moved=None)
+    baseline = replace(current, fit=cubic, early_stop=None, min_moved=None)
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()}")
     print(f"recording {EXAMPLE.name}: {rec.n_samples} samples at {rec.fs:g} Hz; band "
           f"{args.max_frequency or 0.38 * rec.fs:g} Hz; {args.repeats} SMC repeats per model; 2 processes")
 
     base, base_wall = timed_compare(rec, baseline)
-    print(f"baseline (every repeat, three accepted moves per particle): {base_wall:.1f} s, "
+    print(f"baseline (cubic splines, every repeat, three accepted moves per particle): {base_wall:.1f} s, "
           f"{smc_evaluations(base)} SMC evaluations in {runs(base)} runs; load {os.getloadavg()}")
     new, new_wall = timed_compare(rec, current)
-    print(f"current (early stop at {current.early_stop:g} nats, min_moved {current.min_moved}): {new_wall:.1f} s, "
+    print(f"current (degree {current.fit.degree}, early stop at {current.early_stop:g} nats, min_moved "
+          f"{current.min_moved}): {new_wall:.1f} s, "
           f"{smc_evaluations(new)} SMC evaluations in {runs(new)} runs; load {os.getloadavg()}")
     evaluation_ratio = smc_evaluations(base) / smc_evaluations(new)
     print(f"ratio baseline / current: wall time {base_wall / new_wall:.2f}, SMC evaluations {evaluation_ratio:.2f}")

@@ -15,6 +15,7 @@ from bayesbeam.cli.common import (
     output_folder,
     positive_int,
 )
+from bayesbeam.inference.fit import N_LADDERS, FitConfig
 from bayesbeam.inference.likelihood import NOISE_MODELS
 from bayesbeam.io import load_recording
 
@@ -40,6 +41,8 @@ def add_fit_options(p) -> None:
     apply where an option is not given)."""
     p.add_argument("--config", metavar="FILE", help="fit file (TOML): [fit] settings and [prior.NAME] tables (default: none)")
     p.add_argument("--n-intervals", type=positive_int, metavar="N", help="spline intervals N (default: automatic)")
+    p.add_argument("--degree", type=int, choices=sorted(N_LADDERS), help="the splines' polynomial degree "
+                   f"(default: {FitConfig.degree}; quintic reaches the cubic's accuracy with a third of the intervals)")
     p.add_argument("--start", type=float, metavar="SECONDS", help="start of the fitted window (s; default: the record's start, "
                                                 "or the free decay's)")
     p.add_argument("--stop", type=float, metavar="SECONDS", help="end of the fitted window (s; default: the record's end)")
@@ -58,7 +61,7 @@ def fit_config(args):
     from bayesbeam.inference import FitConfig, load_fit_config
 
     overrides = {"start": args.start, "stop": args.stop, "max_frequency": args.max_frequency,
-                 "n_intervals": args.n_intervals, "noise": args.noise, "walkers": args.walkers,
+                 "n_intervals": args.n_intervals, "degree": args.degree, "noise": args.noise, "walkers": args.walkers,
                  "max_steps": args.max_steps, "seed": args.seed,
                  "force_window": False if args.no_force_window else None,
                  "force_noise": False if args.no_force_noise else None}

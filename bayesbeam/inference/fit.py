@@ -61,7 +61,7 @@ class FitConfig:
     stop: float | None = None
     max_frequency: float | None = None
     n_intervals: int | None = None
-    degree: int = 3
+    degree: int = 5
     noise: str = "white"
     block: int | None = None
     walkers: int | None = None

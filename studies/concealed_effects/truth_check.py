@@ -35,7 +35,7 @@ from bayesbeam.io.atomic import write_text
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import generate
-from run import MAX_FREQUENCY
+from run import DEGREE, MAX_FREQUENCY
 
 
 def true_values(truth: dict) -> dict:
@@ -45,7 +45,7 @@ def true_values(truth: dict) -> dict:
 def optimum(rec, truth: dict, n_intervals: int):
     """(optimum theta, Laplace covariance, posterior, truth's coordinates) of the true model."""
     effects = (truth["effect"],) if truth["effect"] else ()
-    post = prepare(rec, truth["damping_model"], FitConfig(max_frequency=MAX_FREQUENCY, effects=effects),
+    post = prepare(rec, truth["damping_model"], FitConfig(max_frequency=MAX_FREQUENCY, effects=effects, degree=DEGREE),
                    n_intervals).posterior
     values = true_values(truth)
     best = find_optimum(post, np.random.default_rng(0), start=values)

@@ -3,7 +3,8 @@
 The paper's beam (Banks & Inman 1989, Table 1: l = 1 m, rho = 1710 kg/m^3, A = 0.597e-3 m^2,
 I = 1.64e-9 m^4, E = 2.7e10 Pa, so EI = 44.28 N m^2), a smooth Gaussian force pulse at 0.75 m
 and one tip accelerometer, simulated by ``BeamModel.simulate`` at known parameters with a small
-spline grid N, plus seeded white Gaussian noise of a given fraction of the signal RMS.
+spline grid N (at the fits' default degree), plus seeded white Gaussian noise of a given fraction
+of the signal RMS.
 """
 from __future__ import annotations
 
@@ -64,9 +65,13 @@ def base_recording(fs=512.0, duration=1.0, beam=PAPER_BEAM, sensors=None, tip=No
 
 
 def clean_response(model_name: str, params=None, n_intervals=6, **kwargs) -> tuple[Recording, np.ndarray]:
+    """(recording, clean signals) of ``model_name`` at N = ``n_intervals`` and the fits' default
+    spline degree: the discretisation these cases' fits use, so that they are exact."""
+    from bayesbeam.inference import FitConfig
+
     rec = base_recording(**kwargs)
     params = TRUTH[model_name] if params is None else params
-    return rec, BeamModel.from_recording(rec, model_name, n_intervals).simulate(params)
+    return rec, BeamModel.from_recording(rec, model_name, n_intervals, degree=FitConfig.degree).simulate(params)
 
 
 def simulated(model_name: str, seed: int, noise_fraction=0.02, n_intervals=6, params=None, **kwargs):

@@ -446,7 +446,7 @@ def test_force_noise_marginalisation_calibrates_the_estimates():
     """
     truth = cases.TRUTH["q1"]
     rec = cases.base_recording(fs=512.0, duration=2.0)
-    clean = BeamModel.from_recording(rec, "q1", 6, force_window=False).simulate(truth)
+    clean = BeamModel.from_recording(rec, "q1", 6, force_window=False, degree=FitConfig.degree).simulate(truth)
     sd, force_sd = 0.005 * np.sqrt(np.mean(clean**2)), 0.01 * rec.force.max()
     z = {False: [], True: []}
     for seed in range(12):
