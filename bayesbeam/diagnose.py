@@ -285,7 +285,8 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
     Each effect was added by a decisive log Bayes factor against the damping model of the first
     comparison; part of what it explained there can be that model's wrong damping (a root
     dashpot makes up for q2's on a beam with q1's). So, by backward elimination, each added
-    effect is left out in turn (the models fitted together, each from the full model's optimum,
+    effect that no other one requires is left out in turn (the models fitted together, each from
+    the full model's optimum,
     which nests it; the bare damping model is the first comparison's fit): while some effect's
     removal costs less than the decisive margin (ln B <= :data:`DECISIVE` by
     :data:`DECISIVE_SD` standard errors), the one whose removal leaves the highest evidence is
@@ -297,7 +298,10 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
     damping = next(m for m in DEFAULT_MODELS if join_model(m, recheck.effects) == recheck.best)
     final, kept = recheck.results[recheck.best], list(added)
     while kept:
-        reduced = {join_model(damping, given + tuple(e for e in kept if e != left)): left for left in kept}
+        reduced = {spec: left for left in kept
+                   if combinable(spec := join_model(damping, given + tuple(e for e in kept if e != left)))}
+        if not reduced:                 # no effect can go alone (the others need it)
+            break
         fitted = {first[damping].name: first[damping]} if damping in first else {}
         to_fit = [spec for spec in reduced if spec not in fitted]
         say(f"judging {', '.join(kept)} again with {damping}: {', '.join(reduced)}")
@@ -387,10 +391,13 @@ def _probe_values(current, candidate) -> dict:
 
 
 def combinable(spec: str) -> bool:
-    """Whether the mechanisms and effects of ``spec`` go together (a nonlinear effect cannot carry a
-    memory mechanism: the nonlinear integrator needs a state-space model)."""
+    """Whether the mechanisms and effects of ``spec`` go together: a nonlinear effect cannot carry a
+    memory mechanism (the nonlinear integrator needs a state-space model), and every component
+    needs what it requires beside it (a root dashpot the root spring)."""
     mechanisms, effects = resolve_model(spec)
-    return not (any(not e.linear for e in effects) and any(m.hereditary for m in mechanisms))
+    names = {c.name for c in (*mechanisms, *effects)}
+    return (not (any(not e.linear for e in effects) and any(m.hereditary for m in mechanisms))
+            and all(set(c.requires) <= names for c in (*mechanisms, *effects)))
 
 
 def _locate(result, rng, config: DiagnoseConfig) -> Mismatch:

@@ -161,7 +161,7 @@ def test_models_not_fitted_and_the_damping_recheck_are_shown():
     # added effects judged again with the new damping: the dropped one is named, the table shows both
     summary["damping_recheck"] |= {"dropped": ["root_damping"], "final": "q1+root_compliance", "pruning": {
         "q1+root_compliance": {"without": "root_damping", "log_bayes_factor": -1.0, "sd": 0.1, "needed": False},
-        "q1+root_damping": {"without": "root_compliance", "log_bayes_factor": 300.0, "sd": 0.1, "needed": True}}}
+        "q1": {"without": "root_compliance", "log_bayes_factor": 300.0, "sd": 0.1, "needed": True}}}
     text = render(d, summary)
     assert "root_damping no longer earned a place and was dropped" in section(text, "summary")
     pruned = section(text, "candidates")
