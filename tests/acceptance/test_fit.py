@@ -47,12 +47,22 @@ burn-in of 3 tau; the fit's own rule would run to 50 tau): enough for each sd to
    (a force scaled by a few per cent, absorbed by the damping) is the coverage test's to catch.
 
    q3's a and b lie on a thin curved ridge (correlation -0.995; spatial hysteresis acts like
-   Kelvin-Voigt with cdI = a b^2 / 2 for small b): along the ridge's bend the posterior is several
-   times wider than the local curvature predicts (measured 6.6 x along the best-determined
-   direction of (log a, log b), 2.3 x and 1.5 x the prediction for a and b), so no fixed factor of
-   the Fisher prediction bounds their sd on a 1 s record. They are tested for contraction against
-   the prior instead: sd(log) below a quarter of the prior's (prior sds 5.3 for a, 2.0 for b;
-   measured 0.44 and 0.29), which a likelihood that ignored the data fails.
+   Kelvin-Voigt with cdI = a b^2 / 2 for small b), and the ridge ends in a plateau toward that
+   limit: on the paper q3 record the profile log posterior falls by 3 nats from the peak
+   (b = 0.15 m) to b = 0.02 m and stays there down to b's prior bound, for every spline degree and
+   N tried (quintic 8 and 24, cubic 16 and 32: within 0.1 nat). A chain of the fit's own length
+   (20 000 steps, integrated autocorrelation time ~1300 along the ridge) puts 18 % of the mass on
+   the plateau; 600 steps cannot apportion it: started at the peak, seeds 13-15 put none there,
+   and started on the plateau 98 % stays there; a b^2 / 2 itself differs between peak (3.5e-4)
+   and plateau (2.2e-4). So a short chain's quantiles of a and b test the chain, not the
+   likelihood. Their test is the profile likelihood instead, which needs no chain: with EI,
+   gamma and the noise re-optimised at the true (a, b), the log posterior lies less than
+   chi2_2(0.99) / 2 = 4.61 nats below the fit's optimum, i.e. the truth is inside the 99 %
+   profile-likelihood region (Wilks; the region includes the plateau, 3 nats down, as it
+   should). A likelihood biased in the damping moves the optimum off the truth by many nats.
+   And it lies no more than 0.1 nat (the polish's tolerance) *above* the optimum: an optimiser
+   that stops on the plateau (3 nats below the peak) fails. No contraction is claimed for a and
+   b: the plateau reaches b's prior bound.
 
 The four fits run on two worker processes (the suite's budget is two cores), the longest first.
 """
@@ -69,8 +79,11 @@ RUNS = {"paper q3": ("q3", "paper", 13, 20, 600), "alu q1": ("q1", "alu", 14, 16
 CASES = list(RUNS)
 #: parameters on a curved ridge, whose posterior is not Gaussian on these records (module docstring)
 RIDGE = {"paper q3": ("a", "b")}
-#: their posterior sd must be below this share of the prior's
-PRIOR_SHARE = 0.25
+#: the truth of the ridge parameters must lie less than this below the optimum's log posterior
+#: when the others are re-optimised: chi2(2).ppf(0.99) / 2 (module docstring)
+PROFILE_DROP = 4.61
+#: and less than this above it (nats): the fit's optimum is the peak
+OPTIMUM_SLACK = 0.1
 #: steps of the forward differences in the log coordinate. EI's response changes on a scale of
 #: 2e-3 in log EI (a radian of phase at 150 Hz over 1 s), the damping's on a scale of 1, so the
 #: truncation errors are ~0.3 % and ~1 % of the derivative (forward against central differences:
@@ -142,6 +155,26 @@ def prior_sd(prior) -> float:
     return prior.b if prior.kind == "lognormal" else (hi - lo) / np.sqrt(12)
 
 
+def profile_drop(post, optimum, truth: dict, names: tuple) -> float:
+    """Log posterior at the optimum minus its maximum over the other parameters with ``names``
+    held at the truth (Nelder-Mead from the optimum; the fixed coordinates are the truth's)."""
+    from scipy.optimize import minimize
+
+    fixed = [post.model_names.index(n) for n in names]
+    free = [i for i in range(post.ndim) if i not in fixed]
+    theta = optimum.theta.copy()
+    theta[fixed] = [post.priors[i].to_coordinate(truth[post.model_names[i]]) for i in fixed]
+
+    def negative(x):
+        theta[free] = x
+        value = post(theta)
+        return -value if np.isfinite(value) else np.inf
+
+    best = minimize(negative, optimum.theta[free], method="Nelder-Mead",
+                    options={"xatol": 1e-7, "fatol": 1e-3, "maxiter": 4000})
+    return float(optimum.log_posterior + best.fun)
+
+
 def fit_and_predict(model: str, beam_name: str, seed: int, walkers: int, steps: int) -> dict:
     """Fit the reference recording and predict its sd (module-level: runs in a worker process)."""
     import time
@@ -162,6 +195,8 @@ def fit_and_predict(model: str, beam_name: str, seed: int, walkers: int, steps: 
                       for i, n in enumerate(post.model_names)},
         "sd": dict(zip(post.model_names, logs.std(axis=0).tolist())),
         "prior_sd": {n: prior_sd(p) for n, p in zip(post.model_names, post.priors)},
+        "profile_drop": {names: profile_drop(post, result.optimum, truth, names)
+                         for names in RIDGE.values() if set(names) <= set(post.model_names)},
         "predicted": fisher_sd(model, beam_name, rec, truth, result.problem),
         "tau": float(np.max(result.chains.tau)), "n_steps": result.chains.n_steps,
         "seconds": (fitted, time.perf_counter() - started - fitted),
@@ -183,6 +218,8 @@ def _report(case: str, r: dict) -> str:
         lines.append(f"  {n:6s} truth {r['truth'][n]:.5g}  90% [{q05:.5g}, {q95:.5g}]  99% [{q005:.5g}, {q995:.5g}]"
                      f"  sd(log) {r['sd'][n]:.3g}  predicted {pred:.3g} (x{r['sd'][n] / pred:.2f}),"
                      f" sensor only {sensor:.3g}, prior {r['prior_sd'][n]:.3g}")
+    for names, drop in r["profile_drop"].items():
+        lines.append(f"  profile log posterior at the true {', '.join(names)}: {drop:.2f} nats below the optimum")
     return "\n".join(lines)
 
 
@@ -196,7 +233,8 @@ def test_automatic_n_passes_the_refinement_check(fits, case):
 def test_truth_inside_the_99_percent_interval(fits, case):
     r = fits[case]
     print(_report(case, r))
-    misses = [n for n in r["names"] if not r["quantiles"][n][0] < r["truth"][n] < r["quantiles"][n][3]]
+    misses = [n for n in r["names"] if n not in RIDGE.get(case, ())
+              and not r["quantiles"][n][0] < r["truth"][n] < r["quantiles"][n][3]]
     assert not misses, _report(case, r)
 
 
@@ -210,7 +248,6 @@ def test_posterior_sd_within_a_factor_2_of_the_fisher_prediction(fits, case):
 
 
 @pytest.mark.parametrize("case", list(RIDGE))
-def test_ridge_parameters_contract_far_below_the_prior(fits, case):
+def test_the_ridge_parameters_truth_is_inside_the_99_percent_profile_region(fits, case):
     r = fits[case]
-    wide = {n: r["sd"][n] / r["prior_sd"][n] for n in RIDGE[case] if not r["sd"][n] < PRIOR_SHARE * r["prior_sd"][n]}
-    assert not wide, _report(case, r)
+    assert -OPTIMUM_SLACK < r["profile_drop"][RIDGE[case]] < PROFILE_DROP, _report(case, r)
