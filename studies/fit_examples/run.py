@@ -72,8 +72,26 @@ def table(name: str) -> str:
     return markdown_table(head, rows)
 
 
+def run_facts(name: str) -> str:
+    """The discretisation and the chains of one fit in a sentence, from its summary.json."""
+    summary = json.loads((HERE / name / "summary.json").read_text())
+    check, run = summary["discretisation_check"], summary["convergence"]
+    degree = {3: "cubic", 5: "quintic"}.get(check.get("degree"), f"degree {check.get('degree')}")
+    verdict = ("" if check["passed"] else
+               f", above the {check['tolerance_sd']:g} tolerance, and the summary says so")
+    chains = (f"converged (longer than 50 tau = {50 * summary['tau']:.0f} steps, tau stable)" if summary["converged"]
+              else f"not converged ({run['reason']})")
+    ess = [q["ess"] for q in summary["parameters"].values()]
+    r_hat = max(q["r_hat"] for q in summary["parameters"].values())
+    return (f"N = {check['n_intervals']} {degree} spline intervals, chosen automatically (the check against "
+            f"N = {check['refined_n_intervals']} moves the optimum by {check['max_shift_sd']:.2g} posterior "
+            f"sd{verdict}); {run['n_walkers']} walkers, {run['n_steps']} steps, {chains}, ESS "
+            f"{min(ess):.0f}-{max(ess):.0f}, R-hat at most {r_hat:.3f} (`convergence.seconds` {run['seconds']:.0f}).")
+
+
 def blocks() -> dict[Path, dict[str, str]]:
-    return {HERE / "README.md": {f"fit-{name}": table(name) for name in COMMANDS}}
+    return {HERE / "README.md": {**{f"fit-{name}": table(name) for name in COMMANDS},
+                                 **{f"facts-{name}": run_facts(name) for name in COMMANDS}}}
 
 
 if __name__ == "__main__":
