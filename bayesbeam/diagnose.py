@@ -305,11 +305,12 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
         fitted = {first[damping].name: first[damping]} if damping in first else {}
         to_fit = [spec for spec in reduced if spec not in fitted]
         say(f"judging {', '.join(kept)} again with {damping}: {', '.join(reduced)}")
-        known = _optimum_values(final)
-        results, _ = compare(rec, to_fit, config.compare, executor, log, starts={s: known for s in to_fit},
-                             rivals={final.name: final.evidence})
-        fitted.update(results)
-        recheck.results.update(results)
+        if to_fit:
+            known = _optimum_values(final)
+            results, _ = compare(rec, to_fit, config.compare, executor, log, starts={s: known for s in to_fit},
+                                 rivals={final.name: final.evidence})
+            fitted.update(results)
+            recheck.results.update(results)
         costs = {}
         for spec, left in reduced.items():
             lbf = final.evidence.log_z - fitted[spec].evidence.log_z

@@ -252,8 +252,11 @@ def _prune(monkeypatch, log_z: dict):
     fits replaced by results of the given log evidences (the bare q1 is the first comparison's)."""
     import bayesbeam.diagnose as dg
 
-    monkeypatch.setattr(dg, "compare", lambda rec, models, *a, **options: (
-        {m: _fit(m, log_z[m], {"EI": 44.0}) for m in models}, None))
+    def fake_compare(rec, models, *args, **options):
+        assert models, "compare needs a model to fit"
+        return {m: _fit(m, log_z[m], {"EI": 44.0}) for m in models}, None
+
+    monkeypatch.setattr(dg, "compare", fake_compare)
     full = "q1+root_compliance+root_damping"
     recheck = dg.DampingRecheck(("root_compliance", "root_damping"), {"best": full}, {full: _fit(full, log_z[full], {"EI": 44.0})},
                                 "q2+root_compliance+root_damping", True)
