@@ -9,6 +9,7 @@ JSON and fails when the markdown has drifted.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -55,3 +56,44 @@ def run(arguments: list[str]) -> int:
     finally:
         os.chdir(here)
         print(f"({time.perf_counter() - started:.0f} s)", flush=True)
+
+
+def truth_values(recording: Path) -> dict | None:
+    """The true parameter values of a simulated example (its truth.json), None for a real record.
+
+    EI, the damping parameters and each concealed effect's value; an effect's value is stored
+    under the effect's name, so it is returned under that name (``parameter_truth`` maps it).
+    """
+    path = recording / "truth.json"
+    if not path.exists():
+        return None
+    truth = json.loads(path.read_text())
+    return {"EI": truth["beam_true"]["EI"], **truth["damping"], **truth.get("effect_parameters", {})}
+
+
+def parameter_truth(name: str, truth: dict, effect_parameters: dict[str, str]) -> float | None:
+    """The true value of parameter ``name``: by its own name, or by its effect's (k_theta -> root_compliance)."""
+    if name in truth:
+        return truth[name]
+    return truth.get(effect_parameters.get(name))
+
+
+def estimates_table(quantities: dict, effects, recording: Path) -> str:
+    """Markdown table of posterior summaries (name -> q05, q50, q95, unit), with the truth and
+    whether the 90 % interval holds it when ``recording`` is a simulated example. ``effects``:
+    the fitted model's effect names (their parameters' truths are stored under them)."""
+    from bayesbeam.physics.effects import resolve
+    from bayesbeam.report.markdown import markdown_table, median_and_interval, significant
+
+    truth = truth_values(recording)
+    owners = {p: e.name for e in resolve(effects) for p in e.parameters}
+    rows = []
+    for parameter, q in quantities.items():
+        row = [f"{parameter} ({q['unit']})" if q["unit"] else parameter, median_and_interval(q)]
+        if truth is not None:
+            value = parameter_truth(parameter, truth, owners)
+            row += ["n/a", "n/a"] if value is None else [significant(value, 5),
+                                                         "yes" if q["q05"] <= value <= q["q95"] else "no"]
+        rows.append(row)
+    head = ["parameter", "posterior median [90% interval]"] + (["truth", "truth inside"] if truth is not None else [])
+    return markdown_table(head, rows)

@@ -31,45 +31,11 @@ COMMANDS = {
 }
 
 
-def truth_values(recording: Path) -> dict | None:
-    """The true parameter values of a simulated example (its truth.json), None for a real record.
-
-    EI, the damping parameters and each concealed effect's value; an effect's value is stored
-    under the effect's name, so it is returned under that name (``parameter_truth`` maps it).
-    """
-    path = recording / "truth.json"
-    if not path.exists():
-        return None
-    truth = json.loads(path.read_text())
-    return {"EI": truth["beam_true"]["EI"], **truth["damping"], **truth.get("effect_parameters", {})}
-
-
-def parameter_truth(name: str, truth: dict, effect_parameters: dict[str, str]) -> float | None:
-    """The true value of parameter ``name``: by its own name, or by its effect's (k_theta -> root_compliance)."""
-    if name in truth:
-        return truth[name]
-    return truth.get(effect_parameters.get(name))
-
-
 def table(name: str) -> str:
-    from bayesbeam.physics.effects import resolve
-    from bayesbeam.report.markdown import markdown_table, median_and_interval, significant
-
     summary = json.loads((HERE / name / "summary.json").read_text())
-    truth = truth_values(study.ROOT / COMMANDS[name][1])
-    # summary["effects"] lists every effect of the fitted model, whether --effect or --model named it
-    effects = {p: e.name for e in resolve(summary["effects"]) for p in e.parameters}
     quantities = {**summary["parameters"], **{k: v for k, v in summary["noise"].items() if k.startswith("sigma_")}}
-    rows = []
-    for parameter, q in quantities.items():
-        row = [f"{parameter} ({q['unit']})" if q["unit"] else parameter, median_and_interval(q)]
-        if truth is not None:
-            value = parameter_truth(parameter, truth, effects)
-            row += ["n/a", "n/a"] if value is None else [significant(value, 5),
-                                                         "yes" if q["q05"] <= value <= q["q95"] else "no"]
-        rows.append(row)
-    head = ["parameter", "posterior median [90% interval]"] + (["truth", "truth inside"] if truth is not None else [])
-    return markdown_table(head, rows)
+    # summary["effects"] lists every effect of the fitted model, whether --effect or --model named it
+    return study.estimates_table(quantities, summary["effects"], study.ROOT / COMMANDS[name][1])
 
 
 def run_facts(name: str) -> str:

@@ -48,10 +48,52 @@ def first_run() -> str:
     return "```text\n" + format_ranking(comparison("paper_q3_hammer")) + "\n```"
 
 
+def blind_chain() -> str:
+    """The blind diagnosis of paper_rootcomp_hammer step by step, from its diagnosis.json."""
+    d = json.loads((HERE / "paper_rootcomp_hammer" / "diagnose" / "diagnosis.json").read_text())
+    base, final = d["baseline"], d["final"]
+    steps = [(f"compares the five default damping models (the table above again): {base['model']} wins, RMS "
+              f"standardized residual {base['rms_standardized_residual']:.2f}, {base['flags']} flags;")]
+    for round_ in sorted({c["round"] for c in d["candidates"]}):
+        tried = [f"{c['effect']} ln B {c['delta_log_evidence']:.1f} "
+                 f"({'added' if c['added'] or c.get('dropped') else 'refused'})"
+                 for c in d["candidates"] if c["round"] == round_]
+        left = [n["model"] for n in d["not_fitted"] if n["round"] == round_]
+        steps.append(f"round {round_}: fitted {', '.join(tried)}"
+                     + (f"; not fitted: {', '.join(left)} (a solve per frequency, `not_fitted`)" if left else "") + ";")
+    recheck = d["damping_recheck"]
+    if recheck:
+        models = recheck["models"]
+        previous = models[recheck["previous"]]["log_evidence"]
+        others = ", ".join(f"{m} {models[m]['log_evidence'] - previous:+.1f}" for m in sorted(
+            models, key=lambda m: -models[m]["log_evidence"]) if m != recheck["previous"])
+        steps.append(f"**the damping re-check**, every default damping model with {' and '.join(recheck['effects'])}, "
+                     f"in nats against {recheck['previous']}: {others}; "
+                     + (f"switched to {recheck['best']};" if recheck["switched"] else "kept;"))
+        for spec, v in recheck.get("pruning", {}).items():
+            steps.append(f"without {v['without']} ({spec}): ln B of keeping it {v['log_bayes_factor']:.1f} nats, "
+                         f"{'needed' if v['needed'] else 'not needed: dropped'};")
+    steps.append(f"final model **{final['model']}**: RMS {final['rms_standardized_residual']:.2f}, {final['flags']} "
+                 f"flags, {'a region unexplained' if d['unexplained'] else 'nothing unexplained'}, log Z "
+                 f"{base['log_evidence']:.1f} -> {final['log_evidence']:.1f} (`seconds` {d['seconds']:.0f}).")
+    return "\n".join(f"{i}. {step}" for i, step in enumerate(steps, 1))
+
+
+def final_estimates() -> str:
+    """The blind chain's final model's posterior against the example's truth."""
+    from bayesbeam.model import resolve_model
+
+    d = json.loads((HERE / "paper_rootcomp_hammer" / "diagnose" / "diagnosis.json").read_text())
+    effects = [e.name for e in resolve_model(d["final"]["model"])[1]]
+    return study.estimates_table(d["final"]["parameters"], effects,
+                                 study.ROOT / "data" / "examples" / "paper_rootcomp_hammer")
+
+
 def blocks() -> dict[Path, dict[str, str]]:
     from bayesbeam.report.comparison import ranking_markdown
 
-    return {HERE / "README.md": {f"comparison-{name}": ranking_markdown(comparison(name)) for name in EXAMPLES},
+    return {HERE / "README.md": {**{f"comparison-{name}": ranking_markdown(comparison(name)) for name in EXAMPLES},
+                                 "blind-chain": blind_chain(), "blind-chain-estimates": final_estimates()},
             study.ROOT / "README.md": {"first-run": first_run()}}
 
 
