@@ -172,8 +172,8 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     evidences, stopped = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,
                                                                             optimum.covariance), 0)
                                     for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))},
-                                   config, seeds[1], executor, rivals or {}, say)
-    evidences = settle(evidences, posteriors, config, seeds[1], executor, say)
+                                   config, seeds[1], executor, rivals or {}, say, _ceilings(posteriors, stage1))
+    evidences = settle(evidences, posteriors, config, seeds[1], executor, say, skip=set(stopped))
     say("posterior predictive checks")
     checks = executor.map(check_job, [(posteriors[m], evidences[m].samples.reshape(-1, posteriors[m].ndim),
                                        _seed(seeds[2], i), config.replicates) for i, m in enumerate(models)])
@@ -189,20 +189,20 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
 
 
 def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict | None = None,
-              say=None) -> tuple[dict, dict]:
+              say=None, ceilings: dict | None = None) -> tuple[dict, dict]:
     """(Evidence per model, why each stopped model was stopped): ``config.repeats`` SMC runs per
     model, combined. ``jobs`` maps a model to (its index, its posterior, the reference, a seed
     offset); a run's seed is ``(index * 1000 + offset + repeat)``, so a repeat's run is the same
     whether or not others were skipped. With ``rivals`` (model -> Evidence of models fitted
     before; None: no early stop) and ``config.early_stop`` set, the first :data:`FIRST_WAVE`
-    repeats run first and the models :func:`beaten` then get no more."""
+    repeats run first and the models :func:`beaten` (with ``ceilings``) then get no more."""
     early = rivals is not None and config.early_stop is not None and config.repeats > FIRST_WAVE
     first = FIRST_WAVE if early else config.repeats
     runs = _runs(jobs, range(first), config, seeds, executor)
     stopped = {}
     if early:
         stopped = beaten({**rivals, **{m: combine_runs(r) for m, r in runs.items()}}, config.early_stop,
-                         config.repeats, set(jobs))
+                         config.repeats, set(jobs), ceilings)
         for m, why in stopped.items():
             if say:
                 say(f"evidence of {m} {why}")
@@ -210,6 +210,11 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
                      config, seeds, executor)
         runs = {m: r + more.get(m, []) for m, r in runs.items()}
     return {m: combine_runs(r) for m, r in runs.items()}, stopped
+
+
+def _ceilings(posteriors: dict, stage1) -> dict:
+    """Each model's log likelihood at its optimum: an upper bound of its log evidence (:func:`beaten`)."""
+    return {m: posteriors[m].terms(optimum.theta)[1] for m, (_, optimum, _) in zip(posteriors, stage1)}
 
 
 def _runs(jobs: dict, repeats, config: CompareConfig, seeds, executor) -> dict:
@@ -224,14 +229,17 @@ def _runs(jobs: dict, repeats, config: CompareConfig, seeds, executor) -> dict:
     return {m: [run for run, o in zip(runs, owners) if o == m] for m in jobs}
 
 
-def beaten(evidences: dict, margin: float, repeats: int, candidates=None) -> dict:
+def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilings: dict | None = None) -> dict:
     """Models of ``candidates`` (default all) whose remaining evidence repeats cannot change the
     ranking, each with the reason: model -> text.
 
     A model is beaten when it trails the leader (the highest log Z of ``evidences``) by more than
     ``margin`` nats beyond three standard errors of the difference, and both are settled (sd at
-    most :data:`EVIDENCE_SD_MAX`: an unsettled run errs low, so an unsettled model is never stopped,
-    and an unsettled leader stops nothing).
+    most :data:`EVIDENCE_SD_MAX`; an unsettled leader stops nothing). An unsettled run errs low, so
+    an unsettled model's log Z is not held against it; its ceiling is (``ceilings``: model -> the
+    log likelihood at its optimum): log Z = log E_prior[L] <= log max L, and the optimum is the
+    likelihood's maximum up to the prior's pull (a small fraction of a nat for the default priors,
+    inside the margin). It is beaten when that ceiling trails the leader's log Z by the margin.
     """
     leader = max(evidences, key=lambda m: evidences[m].log_z)
     top = evidences[leader]
@@ -239,23 +247,29 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None) -> dic
         return {}
     out = {}
     for m, e in evidences.items():
-        if m == leader or (candidates is not None and m not in candidates) or not e.log_z_sd <= EVIDENCE_SD_MAX:
+        if m == leader or (candidates is not None and m not in candidates):
             continue
-        behind, sd = top.log_z - e.log_z, float(np.hypot(top.log_z_sd, e.log_z_sd))
-        if behind - 3 * sd > margin:
-            out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats: {behind:.1f} +- {sd:.1f} nats behind "
-                      f"{leader}, more than {margin:g} nats beyond three standard errors, so its remaining "
-                      f"repeats could not change the ranking")
+        if e.log_z_sd <= EVIDENCE_SD_MAX:
+            behind, sd = top.log_z - e.log_z, float(np.hypot(top.log_z_sd, e.log_z_sd))
+            if behind - 3 * sd > margin:
+                out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats: {behind:.1f} +- {sd:.1f} nats behind "
+                          f"{leader}, more than {margin:g} nats beyond three standard errors, so its remaining "
+                          f"repeats could not change the ranking")
+        elif m in (ceilings or {}) and top.log_z - 3 * top.log_z_sd - ceilings[m] > margin:
+            out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats, unsettled: even its log likelihood at its "
+                      f"optimum, an upper bound of its log evidence, is {top.log_z - ceilings[m]:.1f} nats below "
+                      f"{leader}'s log evidence, more than {margin:g} nats beyond three standard errors")
     return out
 
 
-def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, say) -> dict:
-    """A second evidence pass for every model whose repeats spread by more than
-    :data:`EVIDENCE_SD_MAX`, from a reference fitted to its first pass's posterior particles
-    (:func:`~bayesbeam.inference.evidence.matched_reference`; why there), as many repeats again;
-    it replaces the first, which stays in ``Evidence.first_pass``. Others are returned as they are.
+def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, say, skip=()) -> dict:
+    """A second evidence pass for every model (but those of ``skip``, stopped as beaten) whose
+    repeats spread by more than :data:`EVIDENCE_SD_MAX`, from a reference fitted to its first
+    pass's posterior particles (:func:`~bayesbeam.inference.evidence.matched_reference`; why
+    there), as many repeats again; it replaces the first, which stays in ``Evidence.first_pass``.
+    Others are returned as they are.
     """
-    retry = [m for m, e in evidences.items() if e.log_z_sd > EVIDENCE_SD_MAX]
+    retry = [m for m, e in evidences.items() if e.log_z_sd > EVIDENCE_SD_MAX and m not in skip]
     if not retry:
         return evidences
     say(f"evidence not settled for {', '.join(retry)}: a second pass from its posterior particles")

@@ -80,6 +80,20 @@ def test_unsettled_models_are_never_stopped_and_an_unsettled_leader_stops_nothin
     assert beaten({"q3": wild_leader, "air": far}, 20.0, 3) == {}
 
 
+def test_an_unsettled_model_is_stopped_only_when_its_likelihood_ceiling_is_beaten():
+    """An unsettled model's log Z errs low, so it is held against its ceiling, the log likelihood at
+    its optimum (log Z <= log max L): q2 at -1500 +- 5 with a ceiling of -1480 is stopped behind a
+    settled leader at -765; with a ceiling of -775 (10 nats short of the leader, inside the
+    20-nat margin) it is not, however low its runs; nor behind an unsettled leader."""
+    settled = combine_runs([run(-765.0), run(-765.1)])
+    unsettled = combine_runs([run(-1500.0), run(-1510.0)])
+    stopped = beaten({"q3": settled, "q2": unsettled}, 20.0, 3, ceilings={"q2": -1480.0})
+    assert list(stopped) == ["q2"] and "unsettled" in stopped["q2"] and "715.0 nats below q3" in stopped["q2"]
+    assert beaten({"q3": settled, "q2": unsettled}, 20.0, 3, ceilings={"q2": -775.0}) == {}
+    wild_leader = combine_runs([run(-700.0), run(-720.0)])
+    assert beaten({"q3": wild_leader, "q2": unsettled}, 20.0, 3, ceilings={"q2": -1480.0}) == {}
+
+
 def test_a_rival_fitted_before_can_lead_but_is_never_stopped_or_returned(monkeypatch):
     """The diagnosis passes the current model's evidence: an augmented model 40 nats below it is
     stopped; the rival itself is not a job and is not returned."""
