@@ -234,30 +234,31 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
     ranking, each with the reason: model -> text.
 
     A model is beaten when it trails the leader (the highest log Z of ``evidences``) by more than
-    ``margin`` nats beyond three standard errors of the difference, and both are settled (sd at
-    most :data:`EVIDENCE_SD_MAX`; an unsettled leader stops nothing). An unsettled run errs low, so
-    an unsettled model's log Z is not held against it; its ceiling is (``ceilings``: model -> the
-    log likelihood at its optimum): log Z = log E_prior[L] <= log max L, and the optimum is the
-    likelihood's maximum up to the prior's pull (a small fraction of a nat for the default priors,
-    inside the margin). It is beaten when that ceiling trails the leader's log Z by the margin.
+    ``margin`` nats beyond three standard errors of the difference, and it is settled (sd at most
+    :data:`EVIDENCE_SD_MAX`). An unsettled run errs low, so an unsettled model's log Z is not held
+    against it; its ceiling is (``ceilings``: model -> the log likelihood at its optimum):
+    log Z = log E_prior[L] <= log max L, and the optimum is the likelihood's maximum up to the
+    prior's pull (a small fraction of a nat for the default priors, inside the margin). It is
+    beaten when that ceiling trails the leader's log Z by the margin beyond three of the leader's
+    standard errors. An unsettled leader counts with its lowest run (its runs err low, so its log
+    Z lies above it), and its own standard error, which is large, widens every margin.
     """
     leader = max(evidences, key=lambda m: evidences[m].log_z)
     top = evidences[leader]
-    if not top.log_z_sd <= EVIDENCE_SD_MAX:
-        return {}
+    floor = top.log_z if top.log_z_sd <= EVIDENCE_SD_MAX else min(run.log_z for run in top.runs)
     out = {}
     for m, e in evidences.items():
         if m == leader or (candidates is not None and m not in candidates):
             continue
         if e.log_z_sd <= EVIDENCE_SD_MAX:
-            behind, sd = top.log_z - e.log_z, float(np.hypot(top.log_z_sd, e.log_z_sd))
+            behind, sd = floor - e.log_z, float(np.hypot(top.log_z_sd, e.log_z_sd))
             if behind - 3 * sd > margin:
                 out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats: {behind:.1f} +- {sd:.1f} nats behind "
                           f"{leader}, more than {margin:g} nats beyond three standard errors, so its remaining "
                           f"repeats could not change the ranking")
-        elif m in (ceilings or {}) and top.log_z - 3 * top.log_z_sd - ceilings[m] > margin:
+        elif m in (ceilings or {}) and floor - 3 * top.log_z_sd - ceilings[m] > margin:
             out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats, unsettled: even its log likelihood at its "
-                      f"optimum, an upper bound of its log evidence, is {top.log_z - ceilings[m]:.1f} nats below "
+                      f"optimum, an upper bound of its log evidence, is {floor - ceilings[m]:.1f} nats below "
                       f"{leader}'s log evidence, more than {margin:g} nats beyond three standard errors")
     return out
 

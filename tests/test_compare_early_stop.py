@@ -70,28 +70,37 @@ def test_the_margin_counts_beyond_three_standard_errors():
     assert list(beaten(narrow, 20.0, 3)) == ["q1"]
 
 
-def test_unsettled_models_are_never_stopped_and_an_unsettled_leader_stops_nothing():
+def test_unsettled_models_are_not_stopped_by_their_log_z_and_an_unsettled_leader_counts_with_its_lowest_run():
+    """An unsettled model without a ceiling keeps its repeats. An unsettled leader (runs -700 and
+    -720, sd 10) stops a model whose settled log Z lies beyond its lowest run by the margin and
+    three combined standard errors (-2000: 1280 nats), not one 40 nats below its mean (-750:
+    30 - 3 x 10 < 20)."""
     settled = combine_runs([run(-765.0), run(-765.1)])
     far = combine_runs([run(-2000.0), run(-2000.1)])
     unsettled = combine_runs([run(-1500.0), run(-1510.0)])           # sd 5 nats > EVIDENCE_SD_MAX
     assert beaten({"q3": settled, "air": far, "q2": unsettled}, 20.0, 3) == {"air": beaten(
         {"q3": settled, "air": far}, 20.0, 3)["air"]}
     wild_leader = combine_runs([run(-700.0), run(-720.0)])
-    assert beaten({"q3": wild_leader, "air": far}, 20.0, 3) == {}
+    near = combine_runs([run(-750.0), run(-750.1)])
+    stopped = beaten({"q3": wild_leader, "air": far, "q1": near}, 20.0, 3)
+    assert list(stopped) == ["air"] and "1280.0" in stopped["air"]
 
 
 def test_an_unsettled_model_is_stopped_only_when_its_likelihood_ceiling_is_beaten():
     """An unsettled model's log Z errs low, so it is held against its ceiling, the log likelihood at
     its optimum (log Z <= log max L): q2 at -1500 +- 5 with a ceiling of -1480 is stopped behind a
     settled leader at -765; with a ceiling of -775 (10 nats short of the leader, inside the
-    20-nat margin) it is not, however low its runs; nor behind an unsettled leader."""
+    20-nat margin) it is not, however low its runs. Behind an unsettled leader (runs -700 and -720,
+    sd 10) the ceiling is held against its lowest run and three of its standard errors: -1480 is
+    stopped (730 nats), -760 is not (10 nats)."""
     settled = combine_runs([run(-765.0), run(-765.1)])
     unsettled = combine_runs([run(-1500.0), run(-1510.0)])
     stopped = beaten({"q3": settled, "q2": unsettled}, 20.0, 3, ceilings={"q2": -1480.0})
     assert list(stopped) == ["q2"] and "unsettled" in stopped["q2"] and "715.0 nats below q3" in stopped["q2"]
     assert beaten({"q3": settled, "q2": unsettled}, 20.0, 3, ceilings={"q2": -775.0}) == {}
     wild_leader = combine_runs([run(-700.0), run(-720.0)])
-    assert beaten({"q3": wild_leader, "q2": unsettled}, 20.0, 3, ceilings={"q2": -1480.0}) == {}
+    assert list(beaten({"q3": wild_leader, "q2": unsettled}, 20.0, 3, ceilings={"q2": -1480.0})) == ["q2"]
+    assert beaten({"q3": wild_leader, "q2": unsettled}, 20.0, 3, ceilings={"q2": -760.0}) == {}
 
 
 def test_a_rival_fitted_before_can_lead_but_is_never_stopped_or_returned(monkeypatch):
