@@ -20,13 +20,15 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 README = HERE / "README.md"
 #: the benchmarks with a block in README.md, in its order
-NAMES = ("forward", "effects", "sampling", "batch", "compare", "diagnose", "basis", "ppc")
+NAMES = ("forward", "effects", "sampling", "batch", "compare", "compare_full", "diagnose", "basis", "ppc")
+#: results kept under another name than their script's (name -> script): the same benchmark at another setting
+SCRIPTS = {"compare_full": "compare"}
 
 sys.path.insert(0, str(HERE.parent))          # the working tree's bayesbeam, even if another copy is installed
 
 
 def command(name: str, argv: list[str]) -> str:
-    return " ".join(["python", f"benchmarks/{name}.py", *argv])
+    return " ".join(["python", f"benchmarks/{SCRIPTS.get(name, name)}.py", *argv])
 
 
 def render(name: str) -> str:
