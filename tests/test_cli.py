@@ -108,3 +108,21 @@ def test_fit_writes_outputs_and_flags_unconverged_chains(tmp_path, capsys):
 def test_fit_refuses_an_unknown_model(tmp_path, capsys):
     code = main(["fit", str(DATA / "examples" / "paper_q3_hammer"), "--model", "q9", "--out", str(tmp_path / "x")])
     assert code == 2 and "unknown damping mechanism" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["fit", "compare", "diagnose"])
+def test_the_spline_degree_is_an_option_of_every_fitting_command(command, capsys):
+    """--degree reaches the fit's configuration (quintic by default, the paper's cubics on request);
+    a degree without a refinement ladder is refused by the parser, naming the choices."""
+    from bayesbeam.cli import build_parser
+    from bayesbeam.cli.fit import fit_config
+    from bayesbeam.inference import FitConfig
+
+    parser = build_parser()
+    rec = str(DATA / "examples" / "paper_q3_hammer")
+    args = parser.parse_args([command, rec, "--degree", "3", "--out", "x"])
+    assert fit_config(args).degree == 3
+    assert fit_config(parser.parse_args([command, rec, "--out", "x"])).degree == FitConfig.degree == 5
+    with pytest.raises(SystemExit):
+        parser.parse_args([command, rec, "--degree", "4", "--out", "x"])
+    assert "choose from 3, 5" in capsys.readouterr().err
