@@ -286,11 +286,10 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
     comparison; part of what it explained there can be that model's wrong damping (a root
     dashpot makes up for q2's on a beam with q1's). So, by backward elimination, each added
     effect that no other one requires is left out in turn (the models fitted together, each from
-    the full model's optimum,
-    which nests it; the bare damping model is the first comparison's fit): while some effect's
-    removal costs less than the decisive margin (ln B <= :data:`DECISIVE` by
-    :data:`DECISIVE_SD` standard errors), the one whose removal leaves the highest evidence is
-    dropped. Given effects stay. Returns the final ModelResult and records ``recheck.dropped``
+    the full model's optimum, which nests it; the bare damping model is the first comparison's
+    fit): while some effect's removal costs less than the decisive margin (ln B <=
+    :data:`DECISIVE` by :data:`DECISIVE_SD` standard errors), the one whose removal leaves the
+    highest evidence is dropped. Given effects stay. Returns the final ModelResult and records ``recheck.dropped``
     and ``recheck.pruning`` (reduced model -> the effect left out, ln B of keeping it, its sd),
     ``recheck.final`` and the reduced fits in ``recheck.results``.
     """
