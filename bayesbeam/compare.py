@@ -201,8 +201,12 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
     runs = _runs(jobs, range(first), config, seeds, executor)
     stopped = {}
     if early:
+        # the highest log likelihood seen, at the optimum or on any particle: an optimum left in a
+        # poor mode must not make a ceiling lower than what the runs found
+        seen = {m: max([(ceilings or {}).get(m, -np.inf)] + [float(np.max(r.log_likelihood)) for r in rs])
+                for m, rs in runs.items()}
         stopped = beaten({**rivals, **{m: combine_runs(r) for m, r in runs.items()}}, config.early_stop,
-                         config.repeats, set(jobs), ceilings)
+                         config.repeats, set(jobs), seen)
         for m, why in stopped.items():
             if say:
                 say(f"evidence of {m} {why}")
@@ -213,7 +217,8 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
 
 
 def _ceilings(posteriors: dict, stage1) -> dict:
-    """Each model's log likelihood at its optimum: an upper bound of its log evidence (:func:`beaten`)."""
+    """Each model's log likelihood at its optimum: with the highest of its SMC particles', the
+    ceiling of its log evidence (:func:`beaten`)."""
     return {m: posteriors[m].terms(optimum.theta)[1] for m, (_, optimum, _) in zip(posteriors, stage1)}
 
 
@@ -236,9 +241,10 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
     A model is beaten when it trails the leader (the highest log Z of ``evidences``) by more than
     ``margin`` nats beyond three standard errors of the difference, and it is settled (sd at most
     :data:`EVIDENCE_SD_MAX`). An unsettled run errs low, so an unsettled model's log Z is not held
-    against it; its ceiling is (``ceilings``: model -> the log likelihood at its optimum):
-    log Z = log E_prior[L] <= log max L, and the optimum is the likelihood's maximum up to the
-    prior's pull (a small fraction of a nat for the default priors, inside the margin). It is
+    against it; its ceiling is (``ceilings``: model -> the highest log likelihood found, at its
+    optimum or on its SMC particles): log Z = log E_prior[L] <= log max L, and the highest value
+    found stands for max L up to the prior's pull (a small fraction of a nat for the default
+    priors, inside the margin) when the optimiser or the runs found the likelihood's mode. It is
     beaten when that ceiling trails the leader's log Z by the margin beyond three of the leader's
     standard errors. An unsettled leader counts with its lowest run (its runs err low, so its log
     Z lies above it), and its own standard error, which is large, widens every margin.

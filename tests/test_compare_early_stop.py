@@ -19,9 +19,13 @@ from bayesbeam.inference.fit import FitConfig
 from tests.inference import cases
 
 
+#: a stand-in run's particles' log likelihood lies this far above its log Z (the Occam factor)
+OCCAM = 5.0
+
+
 def run(log_z):
     return SimpleNamespace(log_z=log_z, betas=np.array([0.0, 1.0]), particles=np.zeros((4, 2)),
-                           n_evaluations=4, seconds=0.0)
+                           log_likelihood=np.full(4, log_z + OCCAM), n_evaluations=4, seconds=0.0)
 
 
 def fake_smc(args):
@@ -30,9 +34,9 @@ def fake_smc(args):
     return run(post.log_z + post.spread * np.random.default_rng(seed).standard_normal())
 
 
-def evidences(jobs, config, monkeypatch, rivals=None):
+def evidences(jobs, config, monkeypatch, rivals=None, ceilings=None):
     monkeypatch.setattr(cmp, "smc_job", fake_smc)
-    return cmp._evidence(jobs, config, np.random.SeedSequence(4), SerialExecutor(), rivals, None)
+    return cmp._evidence(jobs, config, np.random.SeedSequence(4), SerialExecutor(), rivals, None, ceilings)
 
 
 def jobs_for(values, spread=0.1):
@@ -132,3 +136,17 @@ def test_on_a_real_comparison_the_leader_keeps_its_repeats_and_the_verdict_says_
     assert "stopped after 2 of 3 repeats" in early["models"]["air"]["evidence"]["stopped_early"]
     assert early["models"]["air"]["evidence"]["repeats"] == full["models"]["air"]["evidence"]["repeats"][:2]
     assert "stopped early for air" in early["verdict"] and "stopped early" not in full["verdict"]
+
+
+def test_a_ceiling_is_never_below_the_likelihood_its_runs_found(monkeypatch):
+    """alu_q1_release's pattern: q3's optimiser stopped in a corner of its prior 1016 nats below
+    q1 while its (unsettled) runs found the mode, 7 nats behind. The ceiling is the highest log
+    likelihood seen, the runs' particles included, so q3 keeps its repeats; with runs that stay far
+    below as well, it is stopped."""
+    jobs = {"q1": (0, SimpleNamespace(ndim=2, log_z=8744.0, spread=0.01), None, 0),
+            "q3": (1, SimpleNamespace(ndim=2, log_z=8737.0, spread=3.0), None, 0)}
+    _, stopped = evidences(jobs, CompareConfig(repeats=3), monkeypatch, rivals={}, ceilings={"q3": 7728.0})
+    assert stopped == {}
+    jobs["q3"] = (1, SimpleNamespace(ndim=2, log_z=7700.0, spread=3.0), None, 0)
+    _, stopped = evidences(jobs, CompareConfig(repeats=3), monkeypatch, rivals={}, ceilings={"q3": 7728.0})
+    assert list(stopped) == ["q3"] and "unsettled" in stopped["q3"]
