@@ -135,7 +135,7 @@ def forced():
     rng = np.random.default_rng(3)
     e = 0.5 * rng.standard_normal(clean.shape)
     rec = rec.with_signals(clean + e)
-    model = BeamModel.from_recording(rec, "q1", 6)
+    model = BeamModel.from_recording(rec, "q1", 6, degree=FitConfig.degree)      # the model that made clean
     proj = BandProjection(rec.fs, 0, rec.n_samples, 128, 0.38 * rec.fs)
     return rec, model, proj, e
 
@@ -159,7 +159,7 @@ def test_white_noise_log_likelihood_equals_a_direct_computation(forced):
 def test_noise_free_recording_has_zero_residual_at_the_truth():
     """Data simulated by the same model: residual zero to round-off (1e-9 of the data RMS)."""
     rec, clean = cases.clean_response("q3")
-    model = BeamModel.from_recording(rec.with_signals(clean), "q3", 6)
+    model = BeamModel.from_recording(rec.with_signals(clean), "q3", 6, degree=FitConfig.degree)
     lik = Likelihood(model, BandProjection(rec.fs, 0, rec.n_samples, 256, 150.0))
     r = lik.residual(cases.TRUTH["q3"])
     assert np.max(np.abs(r)) < 1e-9 * np.sqrt(np.mean(lik.z_data**2))
