@@ -217,9 +217,11 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
 
 
 def _ceilings(posteriors: dict, stage1) -> dict:
-    """Each model's log likelihood at its optimum: with the highest of its SMC particles', the
-    ceiling of its log evidence (:func:`beaten`)."""
-    return {m: posteriors[m].terms(optimum.theta)[1] for m, (_, optimum, _) in zip(posteriors, stage1)}
+    """Each model's log likelihood at its optimum (its log posterior there less the log prior: no
+    second evaluation): with the highest of its SMC particles', the ceiling of its log evidence
+    (:func:`beaten`)."""
+    return {m: optimum.log_posterior - posteriors[m].log_prior(optimum.theta)
+            for m, (_, optimum, _) in zip(posteriors, stage1)}
 
 
 def _runs(jobs: dict, repeats, config: CompareConfig, seeds, executor) -> dict:
@@ -263,8 +265,8 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
                           f"{leader}, more than {margin:g} nats beyond three standard errors, so its remaining "
                           f"repeats could not change the ranking")
         elif m in (ceilings or {}) and floor - 3 * top.log_z_sd - ceilings[m] > margin:
-            out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats, unsettled: even its log likelihood at its "
-                      f"optimum, an upper bound of its log evidence, is {floor - ceilings[m]:.1f} nats below "
+            out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats, unsettled: even the highest log likelihood "
+                      f"found for it, which bounds its log evidence from above, is {floor - ceilings[m]:.1f} nats below "
                       f"{leader}'s log evidence, more than {margin:g} nats beyond three standard errors")
     return out
 

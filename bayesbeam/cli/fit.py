@@ -58,7 +58,7 @@ def add_fit_options(p) -> None:
 
 def fit_config(args):
     """The FitConfig of ``args``: a ``--config`` file with the command-line options on top."""
-    from bayesbeam.inference import FitConfig, load_fit_config
+    from bayesbeam.inference import load_fit_config
 
     overrides = {"start": args.start, "stop": args.stop, "max_frequency": args.max_frequency,
                  "n_intervals": args.n_intervals, "degree": args.degree, "noise": args.noise, "walkers": args.walkers,

@@ -132,9 +132,10 @@ def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: i
         x = _restart(counter, full[:k], np.sqrt(np.diag(cov)[:k]), bounds)
         if x is not None:
             full, cov = _polished(post, counter, x)
-            _say(log, f"restarted polish moved the optimum to log posterior {post(full):.6g}")
-    _say(log, f"optimum: log posterior {post(full):.6g} ({counter.calls} evaluations)")
-    return Optimum(full, post(full), cov, counter.calls)
+            _say(log, "restarted polish moved the optimum")
+    value = post(full)
+    _say(log, f"optimum: log posterior {value:.6g} ({counter.calls} evaluations)")
+    return Optimum(full, value, cov, counter.calls)
 
 
 def _nelder_mead(counter, x0, simplex=None) -> np.ndarray:
