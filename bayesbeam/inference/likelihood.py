@@ -312,17 +312,47 @@ class Likelihood:
 
     def _batch(self, params: Sequence[dict], v: np.ndarray) -> np.ndarray:
         """:meth:`log_likelihoods` of one chunk; ``v`` (P, D, c) the noise variances."""
+        z, psi = self._band_residuals(params)
+        if psi is None:
+            return -0.5 * np.sum(np.log(2 * np.pi * v) + z**2 / v, axis=(1, 2))
+        return _marginal_batch(z, psi, self.force_noise.variance, v)
+
+    def _band_residuals(self, params: Sequence[dict]) -> tuple[np.ndarray, np.ndarray | None]:
+        """Band coordinates of data minus model for each set, (P, D, c), and of the force noise's
+        latent columns, (J, P, c, D) (None without force noise)."""
         proj = self.projection
         if self.force_noise is None:
-            r = self.z_data - proj.project(self.model.simulate_batch(params)).transpose(1, 0, 2)
-            return -0.5 * np.sum(np.log(2 * np.pi * v) + r**2 / v, axis=(1, 2))
+            return self.z_data - proj.project(self.model.simulate_batch(params)).transpose(1, 0, 2), None
         index = self.force_noise.index
         first = proj.i0 - int(index.max())
         lags = np.arange(first, proj.i0 + proj.n_blocks * proj.block - int(index.min()))
         y, unit = self.model.simulate_with_impulse_batch(params, lags)
         z = self.z_data - proj.project(y).transpose(1, 0, 2)                         # (P, D, c)
-        psi = proj.project_shifted(unit, first, index)                               # (J, P, c, D)
-        return _marginal_batch(z, psi, self.force_noise.variance, v)
+        return z, proj.project_shifted(unit, first, index)                           # (J, P, c, D)
+
+    @property
+    def profiles_in_batches(self) -> bool:
+        """Whether :meth:`profiled_log_likelihoods` applies: white noise on a forced or released
+        recording of a linear model."""
+        return self.noise == "white" and not self.free_decay and self.model.batches
+
+    def profiled_log_likelihoods(self, params: Sequence[dict], clip) -> tuple[np.ndarray, np.ndarray]:
+        """What :meth:`profile_noise` and :meth:`log_likelihood` give together, for P sets at once:
+        (noise variances (P, c) at their conditional optimum passed through ``clip`` (a callable
+        on such an array, e.g. into the priors' support), log likelihoods there (P,)); one model
+        evaluation per set serves both. Needs :attr:`profiles_in_batches`."""
+        variances, values = [], []
+        for i in range(0, len(params), self.batch_size):
+            z, psi = self._band_residuals(params[i:i + self.batch_size])
+            if psi is None:
+                v = clip(np.mean(z**2, axis=1))
+                values.append(-0.5 * np.sum(np.log(2 * np.pi * v[:, None]) + z**2 / v[:, None], axis=(1, 2)))
+            else:
+                v = clip(_profiled_variance_batch(z, psi, self.force_noise.variance))
+                values.append(_marginal_batch(z, psi, self.force_noise.variance,
+                                              np.broadcast_to(v[:, None], z.shape)))
+            variances.append(v)
+        return np.concatenate(variances), np.concatenate(values)
 
     def pointwise(self, params: dict, noise: dict) -> np.ndarray:
         """Per-block log-likelihood terms, summed over channels: (n_blocks,).
@@ -401,20 +431,39 @@ class Likelihood:
         return float(np.sqrt(np.mean(self.z_data**2)))
 
 
-def _marginal_batch(z: np.ndarray, psi: np.ndarray, s2: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """The log density of :func:`_marginal` at each of P sets: ``z`` (P, D, c), ``psi`` (J, P, c, D)
-    (the layout of :meth:`BandProjection.project_shifted`), ``s2`` (J,), ``v`` (P, D, c): (P,).
+def _profiled_variance_batch(z: np.ndarray, psi: np.ndarray, s2: np.ndarray, iterations: int = 3) -> np.ndarray:
+    """White-noise variance per set and channel (P, c) at which the latent posterior mean and the
+    RMS residual agree: a few fixed-point steps from the RMS of z (each moves it less, as the J
+    latent terms absorb a share of order J/D of the residual; :meth:`Likelihood._profiled_variance`
+    of each set). ``z`` (P, D, c), ``psi`` (J, P, c, D) as in :func:`_marginal_batch`."""
+    v = np.mean(z**2, axis=1)
+    columns = psi.transpose(1, 3, 2, 0)                                               # (P, D, c, J)
+    for _ in range(iterations):
+        coef = _marginal_parts(z, psi, s2, np.broadcast_to(v[:, None], z.shape))[3]
+        fitted = np.einsum("pdcj,pj->pdc", columns, coef)
+        v = np.maximum(np.mean((z - fitted) ** 2, axis=1), np.finfo(float).tiny)
+    return v
 
-    Stacked J x J Cholesky factors for the determinant, stacked LU solves for A^-1 b.
-    """
+
+def _marginal_parts(z, psi, s2, v):
+    """(whitened data y (P, D c), A (P, J, J), b (P, J), A^-1 b (P, J)) of :func:`_marginal_batch`."""
     n_sets = z.shape[0]
     w = 1.0 / np.sqrt(v)
     y = (z * w).reshape(n_sets, -1)                                                  # (P, D c)
     p = (psi.transpose(1, 0, 3, 2) * w[:, None]).reshape(n_sets, psi.shape[0], -1)  # (P, J, D c)
     a = p @ p.transpose(0, 2, 1) + np.diag(1.0 / s2)
     b = (p @ y[:, :, None])[:, :, 0]
+    return y, a, b, np.linalg.solve(a, b[:, :, None])[:, :, 0]
+
+
+def _marginal_batch(z: np.ndarray, psi: np.ndarray, s2: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """The log density of :func:`_marginal` at each of P sets: ``z`` (P, D, c), ``psi`` (J, P, c, D)
+    (the layout of :meth:`BandProjection.project_shifted`), ``s2`` (J,), ``v`` (P, D, c): (P,).
+
+    Stacked J x J Cholesky factors for the determinant, stacked LU solves for A^-1 b.
+    """
+    y, a, b, coef = _marginal_parts(z, psi, s2, v)
     chol = np.linalg.cholesky(a)
-    coef = np.linalg.solve(a, b[:, :, None])[:, :, 0]
     logdet_a = 2 * np.sum(np.log(np.diagonal(chol, axis1=1, axis2=2)), axis=1)
     return -0.5 * (y.shape[1] * np.log(2 * np.pi) + np.sum(np.log(v), axis=(1, 2)) + np.sum(np.log(s2))
                    + logdet_a + np.sum(y * y, axis=1) - np.sum(b * coef, axis=1))

@@ -116,6 +116,46 @@ class LogPosterior:
             full = self.with_profiled_noise(model_theta)
             return -np.inf if full is None else self(full)
 
+    def profiled_batch(self, model_thetas) -> np.ndarray:
+        """:meth:`profiled` at each row of ``model_thetas`` (P, k). Where the likelihood allows
+        (:attr:`Likelihood.profiles_in_batches`) and batching is on, the sets on the prior's
+        support are evaluated together, one model evaluation each for the profile and the value
+        (:meth:`Likelihood.profiled_log_likelihoods`); a batch that fails as a whole is evaluated
+        set by set, as :meth:`terms_batch` does."""
+        model_thetas = np.atleast_2d(np.asarray(model_thetas, dtype=float))
+        if not (self.likelihood.profiles_in_batches and batching()):
+            return np.array([self.profiled(x) for x in model_thetas], dtype=float)
+        k = len(self.model_names)
+        model_prior = np.array([sum(p.log_density(z) for p, z in zip(self.priors[:k], x)) for x in model_thetas])
+        out = np.full(len(model_thetas), -np.inf)
+        supported = np.flatnonzero(np.isfinite(model_prior))
+        if supported.size == 0:
+            return out
+        params = [self.split(np.concatenate([x, [p.median() for p in self.priors[k:]]]))[0]
+                  for x in model_thetas[supported]]
+        try:
+            variances, log_lik = self.likelihood.profiled_log_likelihoods(params, self._clipped_variances)
+        except UNEVALUABLE:
+            out[supported] = [self.profiled(x) for x in model_thetas[supported]]
+            return out
+        noise_prior = np.array([sum(p.log_density(z) for p, z in zip(self.priors[k:], row))
+                                for row in self._noise_coordinates(variances)])
+        out[supported] = np.where(np.isfinite(log_lik), model_prior[supported] + noise_prior + log_lik, -np.inf)
+        return out
+
+    def _noise_coordinates(self, variances: np.ndarray) -> np.ndarray:
+        """The noise sds' sampling coordinates (P, c) from variances (P, c), clipped into their
+        priors' support as :meth:`with_profiled_noise` clips them."""
+        k = len(self.model_names)
+        return np.stack([np.clip(p.to_coordinate(np.sqrt(variances[:, i])), *p.bounds())
+                         for i, p in enumerate(self.priors[k:])], axis=1)
+
+    def _clipped_variances(self, variances: np.ndarray) -> np.ndarray:
+        """Variances (P, c) with their sds clipped into the noise priors' support."""
+        k = len(self.model_names)
+        coords = self._noise_coordinates(variances)
+        return np.stack([p.to_value(coords[:, i]) ** 2 for i, p in enumerate(self.priors[k:])], axis=1)
+
     def with_profiled_noise(self, model_theta):
         """theta with the noise at its conditional optimum (:meth:`Likelihood.profile_noise`),
         clipped to its prior's support, or None."""

@@ -20,6 +20,7 @@ from bayesbeam.inference.evidence import laplace_reference, smc
 from bayesbeam.inference.fit import FitConfig, prepare
 from bayesbeam.inference.likelihood import BandProjection, Likelihood
 from bayesbeam.inference.posterior import BATCH_VARIABLE, LogPosterior
+from bayesbeam.inference.priors import Prior
 from bayesbeam.inference.sampler import Optimum, laplace_covariance, run_emcee
 from bayesbeam.io import Excitation, Recording, TipBody, load_recording
 from bayesbeam.model import BeamModel
@@ -234,3 +235,65 @@ def test_the_profiled_posterior_evaluates_the_model_once_per_point(q1_posterior,
     assert len(calls) == 4
     post.profiled(theta[:k] + 1e-3)
     assert len(calls) == 5
+
+
+def assert_profiled_batch_matches_loop(post: LogPosterior, model_thetas: np.ndarray, finite) -> None:
+    """profiled_batch equals profiled set by set, to :data:`RTOL` where finite, -inf where not."""
+    single = np.array([post.profiled(x) for x in model_thetas])
+    batch = post.profiled_batch(model_thetas)
+    np.testing.assert_array_equal(np.isfinite(single), finite)
+    np.testing.assert_array_equal(np.isfinite(batch), finite)
+    np.testing.assert_allclose(batch[finite], single[finite], rtol=RTOL, atol=0)
+
+
+@pytest.mark.parametrize("model_name", ["q2", "q3"])
+def test_the_profiled_posterior_in_batches_matches_single_sets(model_name):
+    """The optimiser's batched profile (noise sd at its conditional optimum, the force noise's
+    latent columns marginalised) equals the single-set profile: 9 sets in chunks of 4, the noise
+    prior narrowed so that the truth's sd lies below it and a far set's (EI e times the truth)
+    above it, both clipped as the single path clips them, one set off the model parameters'
+    prior (-inf), and for q2 one that cannot be evaluated (its memory taking more stiffness than
+    EI gives: the batch falls back to single sets)."""
+    rec = noisy_force(model_name)
+    wide = prepare(rec, model_name, FitConfig(n_intervals=6), 6).posterior
+    k = len(wide.model_names)
+    centre = cases.TRUTH[model_name]
+    thetas = spread(wide, centre, 9, seed=6)[:, :k]
+    thetas[0] = [p.to_coordinate(centre[n]) for p, n in zip(wide.priors, wide.model_names)]
+    thetas[1, 0] += 1.0                                  # EI e times the truth
+    sd = [wide.likelihood.profile_noise(wide.split(wide.with_profiled_noise(x))[0])["sigma_accel_tip"]
+          for x in thetas[:2]]
+    assert sd[1] > 8 * sd[0]
+    narrow = {"sigma_accel_tip": Prior("loguniform", 2 * sd[0], sd[1] / 2)}
+    post = prepare(rec, model_name, FitConfig(n_intervals=6, priors=narrow), 6).posterior
+    assert post.likelihood.profiles_in_batches
+    post.likelihood.batch_size = 4
+    sigma = post.priors[k]
+    assert post.with_profiled_noise(thetas[0])[k] == sigma.bounds()[0]
+    assert post.with_profiled_noise(thetas[1])[k] == sigma.bounds()[1]
+    thetas[2, 1] = post.priors[1].bounds()[1] + 1.0      # off the prior's support
+    finite = np.ones(9, bool)
+    finite[2] = False
+    if model_name == "q2":
+        alpha = post.names.index("alpha")
+        thetas[5, alpha] = post.priors[alpha].to_coordinate(1e4)   # unstable
+        finite[5] = False
+    assert_profiled_batch_matches_loop(post, thetas, finite)
+
+
+def test_the_profiled_posterior_of_a_clean_force_in_batches_matches_single_sets():
+    """Clean force channel (no latent terms): the profile is the RMS residual."""
+    rec, _ = cases.simulated("q1", seed=3)
+    post = prepare(rec, "q1", FitConfig(n_intervals=6), 6).posterior
+    assert post.likelihood.force_noise is None and post.likelihood.profiles_in_batches
+    k = len(post.model_names)
+    assert_profiled_batch_matches_loop(post, spread(post, cases.TRUTH["q1"], 5, seed=2)[:, :k], np.ones(5, bool))
+
+
+def test_the_profiled_posterior_falls_back_to_single_sets_for_ar1_noise():
+    """AR(1) noise is profiled set by set (its phi is polished separately)."""
+    rec, _ = cases.simulated("q1", seed=3)
+    post = prepare(rec, "q1", FitConfig(n_intervals=6, noise="ar1"), 6).posterior
+    assert not post.likelihood.profiles_in_batches
+    k = len(post.model_names)
+    assert_profiled_batch_matches_loop(post, spread(post, cases.TRUTH["q1"], 3, seed=2)[:, :k], np.ones(3, bool))
