@@ -5,7 +5,8 @@ r"""From a robust optimum to converged emcee chains.
    the data's spectral peaks (:func:`spectral_ei`), refined by a likelihood scan over +-4% in
    steps of 0.025% with the damping at its prior medians and any missing-physics effect where it
    vanishes, then differential evolution over all
-   model parameters with EI kept within +-0.5%, then a Nelder-Mead polish, restarted with a
+   model parameters with EI kept within +-0.5% (the scan's points and each generation's members
+   evaluated together, :meth:`LogPosterior.profiled_batch`), then a Nelder-Mead polish, restarted with a
    simplex two Laplace sds wide per coordinate (:func:`_restart`); the noise levels are
    profiled out throughout (:meth:`LogPosterior.profiled`). The restart is for a posterior with
    a flat shoulder: q3's (a, b) ridge ends in a plateau toward the Kelvin-Voigt limit (small b),
@@ -103,14 +104,17 @@ class Optimum:
 
 
 def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: int = 321,
-                 de_iterations: int = 40, start: dict | None = None, log=None) -> Optimum:
+                 de_iterations: int = 40, start: dict | None = None, scale: np.ndarray | None = None,
+                 log=None) -> Optimum:
     """Robust maximum a posteriori estimate (see module docstring).
 
     ``start`` (model parameter values by name) replaces the global stages by a local polish
-    from that point, e.g. from the optimum of a coarser discretisation.
+    from that point, e.g. from the optimum of a coarser discretisation; ``scale`` (model
+    coordinates, k x k), a covariance of the posterior near there, e.g. that coarser optimum's
+    Laplace covariance, sets the polish's simplex (default: the curvature at the start).
     """
     k = len(post.model_names)
-    counter = _Counter(post.profiled)
+    counter = _Counter(post.profiled, post.profiled_batch)
     bounds = [p.bounds() for p in post.priors[:k]]
     if start is not None:
         x0 = np.array([post.priors[i].to_coordinate(start[n]) for i, n in enumerate(post.model_names)])
@@ -122,12 +126,16 @@ def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: i
                   f"{np.exp(x0[0]):.5g} N m^2 ({counter.calls} evaluations)")
     if k > 1 and start is None:
         narrow = [(x0[0] - 0.005, x0[0] + 0.005)] + bounds[1:]
-        de = optimize.differential_evolution(lambda x: -counter(x), narrow, x0=np.clip(x0, *np.array(narrow).T),
-                                             maxiter=de_iterations, popsize=10, tol=1e-8, polish=False,
-                                             seed=int(rng.integers(2**31)), init="sobol")
+        # the population's members are evaluated together (vectorized: x is (k, members))
+        de = optimize.differential_evolution(lambda x: -counter.many(x.T), narrow,
+                                             x0=np.clip(x0, *np.array(narrow).T), maxiter=de_iterations,
+                                             popsize=10, tol=1e-8, polish=False, seed=int(rng.integers(2**31)),
+                                             init="sobol", vectorized=True, updating="deferred")
         x0 = de.x
         _say(log, f"differential evolution: log posterior {-de.fun:.6g} ({counter.calls} evaluations)")
-    full, cov = _polished(post, counter, _nelder_mead(counter, x0))
+    if scale is None:
+        scale = _search_scale(counter, x0, bounds)
+    full, cov = _polished(post, counter, _nelder_mead(counter, x0, _simplex_edges(scale, bounds)))
     if start is None and k > 1:
         x = _restart(counter, full[:k], np.sqrt(np.diag(cov)[:k]), bounds)
         if x is not None:
@@ -138,12 +146,50 @@ def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: i
     return Optimum(full, value, cov, counter.calls)
 
 
-def _nelder_mead(counter, x0, simplex=None) -> np.ndarray:
-    """Nelder-Mead maximum of the profiled log posterior from ``x0`` (model coordinates)."""
-    options = {"xatol": 1e-7, "fatol": 1e-6, "maxfev": 400 * len(x0), "adaptive": True}
-    if simplex is not None:
-        options["initial_simplex"] = simplex
-    return optimize.minimize(lambda x: -counter(x), x0, method="Nelder-Mead", options=options).x
+def _nelder_mead(counter, x0, edges) -> np.ndarray:
+    """Nelder-Mead maximum of the profiled log posterior from ``x0`` (model coordinates), run in
+    the coordinates u of x = x0 + edges @ u: the initial simplex is x0 and x0 plus each column
+    of ``edges`` (k x k), and the tolerance on u is a thousandth of an edge.
+
+    Why: the posterior's widths differ by orders of magnitude between coordinates (log EI's sd
+    is ~1e-5, a damping term's ~0.1) and along its ridges, and SciPy's default simplex (5 % of
+    each coordinate) is thousands of sds wide in EI. The value tolerance, 1e-4 nats, lies above
+    the profiled log posterior's rounding noise (~2e-5 nats on a value of ~1e4 at the full band
+    of a 4 s record); below it the simplex wanders on the noise. From 1 sd off q3's optimum at
+    N = 24 on that band: 1600 evaluations (the cap) with the default simplex and 1e-6 nats, 411
+    with the default simplex and 1e-4, 164 with these edges.
+    """
+    options = {"xatol": 1e-3, "fatol": 1e-4, "maxfev": 400 * len(x0), "adaptive": True,
+               "initial_simplex": np.vstack([np.zeros(len(x0)), np.eye(len(x0))])}
+    u = optimize.minimize(lambda u: -counter(x0 + edges @ u), np.zeros(len(x0)), method="Nelder-Mead",
+                          options=options).x
+    return x0 + edges @ u
+
+
+def _simplex_edges(covariance, bounds) -> np.ndarray:
+    """Edges two posterior sds long along the principal axes of ``covariance`` (k x k), each at
+    most an eighth of the narrowest prior support it crosses."""
+    widths = np.array([high - low for low, high in bounds])
+    eigenvalues, axes = np.linalg.eigh(0.5 * (covariance + covariance.T))
+    edges = axes * (2 * np.sqrt(np.clip(eigenvalues, 0.0, None)))
+    reach = np.abs(edges) / (widths[:, None] / 8)
+    return edges / np.maximum(reach.max(axis=0), 1.0)
+
+
+def _search_scale(counter, x, bounds) -> np.ndarray:
+    """A covariance to shape the polish's simplex when none is known: the inverse curvature of the
+    profiled log posterior along each coordinate at ``x`` (an eighth of the prior's width where it
+    is not curved downward there: a start away from the peak)."""
+    step = 1e-4
+    f0 = counter(x)
+    variances = []
+    for i, (low, high) in enumerate(bounds):
+        e = np.zeros(len(x))
+        e[i] = step
+        curvature = -(counter(x + e) - 2 * f0 + counter(x - e)) / step**2
+        fallback = ((high - low) / 8) ** 2
+        variances.append(min(1.0 / curvature, fallback) if np.isfinite(curvature) and curvature > 0 else fallback)
+    return np.diag(variances)
 
 
 #: a restarted polish counts as a move when it gains this much log posterior
@@ -160,7 +206,7 @@ def _restart(counter, x, sd, bounds) -> np.ndarray | None:
     step = np.minimum(np.nan_to_num(2 * sd, nan=np.inf), widths / 8)
     best, value, moved = x, counter(x), False
     for _ in range(RESTARTS):
-        trial = _nelder_mead(counter, best, np.vstack([best, best + np.diag(step)]))
+        trial = _nelder_mead(counter, best, np.diag(step))
         gained = counter(trial)
         if not gained > value + RESTART_GAIN:
             break
@@ -231,15 +277,13 @@ def spectral_ei(post: LogPosterior, x0: np.ndarray, bounds) -> float:
     return float(x0[0] + 2 * np.log(best))
 
 
-def _scan_ei(f, x0, centre, half_width, n) -> float:
-    """Best log EI on a uniform grid of n points in centre +- half_width (other coordinates fixed)."""
+def _scan_ei(counter, x0, centre, half_width, n) -> float:
+    """Best log EI on a uniform grid of n points in centre +- half_width (other coordinates fixed),
+    the points evaluated together."""
     grid = np.linspace(centre - half_width, centre + half_width, n)
-    values = []
-    for z in grid:
-        x = x0.copy()
-        x[0] = z
-        values.append(f(x))
-    return float(grid[int(np.argmax(values))])
+    points = np.repeat(x0[None], n, axis=0)
+    points[:, 0] = grid
+    return float(grid[int(np.argmax(counter.many(points)))])
 
 
 def _polish_all(post, theta, counter):
@@ -293,14 +337,19 @@ def _support(post: LogPosterior) -> tuple[np.ndarray, np.ndarray]:
 def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4) -> np.ndarray:
     """Inverse of the negative finite-difference Hessian of log p at theta (sampling coordinates).
 
-    A coordinate within two steps of its prior's edge (an optimum against the edge) is moved two
-    steps inside first, so that no difference steps out of the support: the curvature there is
-    the edge's to O(step). Falls back to a diagonal built from the curvature along each axis (or
-    1e-3^2) where the Hessian is not negative definite.
+    The differences reach two steps. A coordinate within three steps of its prior's edge (an
+    optimum against the edge) is moved three steps inside first, so that no difference steps out
+    of the support (two would leave the farthest point on the edge, and rounding outside it): the
+    curvature there is the edge's to O(step). So is one whose log posterior two steps away is
+    -inf on one side only (:func:`_off_constraint`): an optimum against a constraint inside the
+    priors' box, such as time hysteresis's memory term taking nearly all the static stiffness EI
+    provides (q2 on data it does not describe). Falls back to a diagonal built from the
+    curvature along each axis (or 1e-3^2) where the Hessian is not negative definite.
     """
     d = len(theta)
     low, high = _support(post)
-    theta = np.where(_near_edge(post, theta, 2 * step), np.clip(theta, low + 2 * step, high - 2 * step), theta)
+    theta = np.where(_near_edge(post, theta, 3 * step), np.clip(theta, low + 3 * step, high - 3 * step), theta)
+    theta = _off_constraint(post, theta, 2 * step, 3 * step)
     f0 = post(theta)
     h = np.zeros((d, d))
     e = np.eye(d) * step
@@ -322,6 +371,19 @@ def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4
         return np.diag(np.where(diag > 0, 1.0 / np.maximum(diag, 1e-300), 1e-6))
 
 
+def _off_constraint(post: LogPosterior, theta: np.ndarray, reach: float, move: float) -> np.ndarray:
+    """theta moved by ``move`` along each coordinate whose log posterior ``reach`` away is -inf on
+    one side and finite on the other, toward the finite side, one coordinate after another."""
+    theta = np.array(theta, dtype=float)
+    for i in range(len(theta)):
+        e = np.zeros(len(theta))
+        e[i] = 1.0
+        up, down = np.isfinite(post(theta + reach * e)), np.isfinite(post(theta - reach * e))
+        if up != down:
+            theta = theta + (move if up else -move) * e
+    return theta
+
+
 #: the optimisers' value where the log posterior is not finite: below any real log posterior, and
 #: small enough that SciPy's differential evolution can square it in its convergence test (np.std
 #: of a population holding -1e300 overflowed, with a RuntimeWarning)
@@ -329,13 +391,23 @@ _NOT_FINITE = -1e150
 
 
 class _Counter:
-    def __init__(self, f):
-        self.f, self.calls = f, 0
+    """The optimisers' objective: ``f`` at a point (``batch`` at the rows of an array), counting
+    evaluations, with :data:`_NOT_FINITE` for a value that is not finite."""
+
+    def __init__(self, f, batch=None):
+        self.f, self.batch, self.calls = f, batch, 0
 
     def __call__(self, x):
         self.calls += 1
         value = self.f(x)
         return value if np.isfinite(value) else _NOT_FINITE
+
+    def many(self, xs) -> np.ndarray:
+        if self.batch is None:
+            return np.array([self(x) for x in xs])
+        self.calls += len(xs)
+        values = self.batch(xs)
+        return np.where(np.isfinite(values), values, _NOT_FINITE)
 
 
 def _say(log, text):

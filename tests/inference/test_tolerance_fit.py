@@ -73,8 +73,8 @@ def test_a_fit_recovers_a_shifted_sensor_within_its_tolerance():
 def test_an_optimum_against_the_tip_keeps_its_laplace_covariance_and_refinement_check():
     """A tip sensor's offset is uniform over [-t, 0]: a sensor truly at the tip puts the optimum on
     the prior's edge, where central differences step out of the support. The Laplace covariance
-    is then taken two steps (2e-4 m) inside: its Hessian's block of the other parameters is the
-    Hessian of the model whose beam.toml states the sensor 2e-4 m inside, without the offset (the
+    is then taken three steps (3e-4 m) inside: its Hessian's block of the other parameters is the
+    Hessian of the model whose beam.toml states the sensor 3e-4 m inside, without the offset (the
     same physics at the same point: 1e-10 of the diagonal scale, observed 4e-14). The refinement
     check's Newton step holds the offset on the edge (shift 0) and moves the others by the step
     with the conditional covariance, which is that same model's inverse Hessian: equal to the
@@ -93,7 +93,7 @@ def test_an_optimum_against_the_tip_keeps_its_laplace_covariance_and_refinement_
         return coarse, finer, coarse.coordinates({n: values[n] for n in coarse.names})
 
     post, finer, theta = posteriors(replace(rec, setup_keys={"sensor": [{"location_tolerance": TOLERANCE}]}))
-    inside = replace(rec, sensors=(replace(rec.sensors[0], location=rec.sensors[0].location - 2e-4),))
+    inside = replace(rec, sensors=(replace(rec.sensors[0], location=rec.sensors[0].location - 3e-4),))
     plain, _, plain_theta = posteriors(inside)
     _, stated_finer, _ = posteriors(rec)
     i = post.names.index("dx_accel_tip")
