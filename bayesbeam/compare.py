@@ -11,7 +11,8 @@ For each model (a preset or ``+``-joined mechanisms, optionally with effects):
    :data:`EVIDENCE_SD_MAX` are run again from a reference fitted to their posterior particles
    (:func:`settle`). The repeats run in two waves: a model that the first :data:`FIRST_WAVE`
    repeats already put decisively behind the leader (:data:`EARLY_STOP_NATS`, :func:`beaten`)
-   gets no more; its summary says so and why.
+   gets no more; its summary says so and why. The model with the highest likelihood at its
+   optimum, the likely leader, runs all its repeats in the first wave.
 3. **Screens**, each labelled with what it assumes: BIC and the Laplace approximation at the
    optimum, and PSIS leave-future-out over the likelihood's time blocks
    (:mod:`bayesbeam.inference.screens`).
@@ -195,10 +196,15 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
     offset); a run's seed is ``(index * 1000 + offset + repeat)``, so a repeat's run is the same
     whether or not others were skipped. With ``rivals`` (model -> Evidence of models fitted
     before; None: no early stop) and ``config.early_stop`` set, the first :data:`FIRST_WAVE`
-    repeats run first and the models :func:`beaten` (with ``ceilings``) then get no more."""
+    repeats run first and the models :func:`beaten` (with ``ceilings``) then get no more. The
+    model with the highest ceiling, the likely leader, runs all its repeats in the first wave: a
+    leader is never stopped, and its last repeat would otherwise run alone while the other
+    workers wait."""
     early = rivals is not None and config.early_stop is not None and config.repeats > FIRST_WAVE
     first = FIRST_WAVE if early else config.repeats
-    runs = _runs(jobs, range(first), config, seeds, executor)
+    favourite = max(jobs, key=lambda m: ceilings.get(m, -np.inf)) if early and ceilings else None
+    runs = _runs(jobs, {m: range(config.repeats if m == favourite else first) for m in jobs},
+                 config, seeds, executor)
     stopped = {}
     if early:
         # the highest log likelihood seen, at the optimum or on any particle: an optimum left in a
@@ -210,7 +216,7 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
         for m, why in stopped.items():
             if say:
                 say(f"evidence of {m} {why}")
-        more = _runs({m: job for m, job in jobs.items() if m not in stopped}, range(first, config.repeats),
+        more = _runs(jobs, {m: range(len(runs[m]), config.repeats) for m in jobs if m not in stopped},
                      config, seeds, executor)
         runs = {m: r + more.get(m, []) for m, r in runs.items()}
     return {m: combine_runs(r) for m, r in runs.items()}, stopped
@@ -224,16 +230,18 @@ def _ceilings(posteriors: dict, stage1) -> dict:
             for m, (_, optimum, _) in zip(posteriors, stage1)}
 
 
-def _runs(jobs: dict, repeats, config: CompareConfig, seeds, executor) -> dict:
-    """The SMC runs of ``repeats`` (repeat indices) for each model of ``jobs`` (see :func:`_evidence`)."""
+def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor) -> dict:
+    """The SMC runs of each model's ``repeats`` (model -> repeat indices) for the models of
+    ``jobs`` (see :func:`_evidence`), those of the model with the most first."""
     args, owners = [], []
-    for m, (i, post, reference, offset) in jobs.items():
+    for m in sorted(repeats, key=lambda m: -len(repeats[m])):
+        i, post, reference, offset = jobs[m]
         particles = config.particles or max(128, 32 * post.ndim)
-        for r in repeats:
+        for r in repeats[m]:
             args.append((post, reference, _seed(seeds, i * 1000 + offset + r), particles, config.min_moved))
             owners.append(m)
     runs = executor.map(smc_job, args) if args else []
-    return {m: [run for run, o in zip(runs, owners) if o == m] for m in jobs}
+    return {m: [run for run, o in zip(runs, owners) if o == m] for m in repeats}
 
 
 def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilings: dict | None = None) -> dict:

@@ -150,3 +150,35 @@ def test_a_ceiling_is_never_below_the_likelihood_its_runs_found(monkeypatch):
     jobs["q3"] = (1, SimpleNamespace(ndim=2, log_z=7700.0, spread=3.0), None, 0)
     _, stopped = evidences(jobs, CompareConfig(repeats=3), monkeypatch, rivals={}, ceilings={"q3": 7728.0})
     assert list(stopped) == ["q3"] and "unsettled" in stopped["q3"]
+
+
+class RecordingExecutor(SerialExecutor):
+    """A serial executor that keeps, per ``map`` call, the seeds of the SMC runs it was given."""
+
+    def __init__(self):
+        self.waves = []
+
+    def map(self, fn, *iterables):
+        self.waves.append([args[2] for args in iterables[0]])
+        return super().map(fn, *iterables)
+
+
+def test_the_model_with_the_highest_ceiling_runs_all_its_repeats_in_the_first_wave(monkeypatch):
+    """The likely leader (highest likelihood ceiling: q3) runs its three repeats in the first wave,
+    first in it; the others two each, and a third only when not stopped (q1, within the margin).
+    Every run is the one of the same repeat on the full path (same seeds), so the evidences equal
+    the full path's where nothing was stopped."""
+    jobs = jobs_for({"q1": -780.0, "q3": -765.0, "air": -3750.0})
+    ceilings = {"q1": -770.0, "q3": -755.0, "air": -3740.0}
+    executor = RecordingExecutor()
+    monkeypatch.setattr(cmp, "smc_job", fake_smc)
+    early, stopped = cmp._evidence(jobs, CompareConfig(repeats=3), np.random.SeedSequence(4), executor, {}, None,
+                                   ceilings)
+    full, _ = evidences(jobs, CompareConfig(repeats=3, early_stop=None), monkeypatch, rivals={})
+    assert list(stopped) == ["air"]
+    first, second = executor.waves
+    q3_seeds = [cmp._seed(np.random.SeedSequence(4), 1000 + r) for r in range(3)]
+    assert first[:3] == q3_seeds and len(first) == 3 + 2 + 2
+    assert len(second) == 1                                      # q1's third repeat
+    for m in ("q1", "q3"):
+        assert [r.log_z for r in early[m].runs] == [r.log_z for r in full[m].runs]
