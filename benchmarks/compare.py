@@ -73,7 +73,16 @@ def model_table(base: dict, new: dict) -> list[str]:
     return lines
 
 
-def main(argv=None) -> int:
+def configs(args) -> tuple[CompareConfig, CompareConfig]:
+    """(baseline, current) comparison settings of the parsed command line."""
+    cubic = FitConfig(max_frequency=args.max_frequency, degree=3)
+    current = CompareConfig(replace(cubic, degree=args.degree or FitConfig.degree), repeats=args.repeats)
+    if args.min_moved is not None:
+        current = replace(current, min_moved=args.min_moved)
+    return replace(current, fit=cubic, early_stop=None, min_moved=None), current
+
+
+def parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-frequency", type=float, default=None,
                         help="top of the fitted band (Hz; default 0.38 fs as in compare)")
@@ -83,13 +92,13 @@ def main(argv=None) -> int:
     parser.add_argument("--min-moved", type=float, default=None,
                         help="the current path's CompareConfig.min_moved (default: compare's default)")
     parser.add_argument("--tables", action="store_true", help="only re-render README.md's block from benchmarks/results/compare.json")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
     rec = load_recording(EXAMPLE)
-    cubic = FitConfig(max_frequency=args.max_frequency, degree=3)
-    current = CompareConfig(replace(cubic, degree=args.degree or FitConfig.degree), repeats=args.repeats)
-    if args.min_moved is not None:
-        current = replace(current, min_moved=args.min_moved)
-    baseline = replace(current, fit=cubic, early_stop=None, min_moved=None)
+    baseline, current = configs(args)
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()}")
     print(f"recording {EXAMPLE.name}: {rec.n_samples} samples at {rec.fs:g} Hz; band "
           f"{args.max_frequency or 0.38 * rec.fs:g} Hz; {args.repeats} SMC repeats per model; 2 processes")

@@ -44,16 +44,25 @@ def timed_diagnose(rec, model, config: DiagnoseConfig) -> tuple[dict, float]:
     return result.to_dict(), time.perf_counter() - started
 
 
-def main(argv=None) -> int:
+def parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--model", default=None, help="baseline model (default: chosen by a comparison)")
     parser.add_argument("--max-frequency", type=float, default=150.0, help="top of the fitted band (Hz)")
     parser.add_argument("--tables", action="store_true", help="only re-render README.md's block from benchmarks/results/diagnose.json")
-    args = parser.parse_args(argv)
-    rec = load_recording(EXAMPLE)
+    return parser
+
+
+def configs(args) -> tuple[DiagnoseConfig, DiagnoseConfig]:
+    """(baseline, current) diagnosis settings of the parsed command line."""
     current = DiagnoseConfig(CompareConfig(FitConfig(max_frequency=args.max_frequency)))
     cubic = replace(current.compare.fit, degree=3)
-    baseline = replace(current, compare=replace(current.compare, fit=cubic, early_stop=None, min_moved=None))
+    return replace(current, compare=replace(current.compare, fit=cubic, early_stop=None, min_moved=None)), current
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
+    rec = load_recording(EXAMPLE)
+    baseline, current = configs(args)
     print(f"{platform.processor() or platform.machine()}, {os.cpu_count()} cores, load {os.getloadavg()}")
     print(f"recording {EXAMPLE.name}: {rec.n_samples} samples at {rec.fs:g} Hz "
           f"({rec.n_samples / rec.fs:g} s); band {args.max_frequency:g} Hz; "
