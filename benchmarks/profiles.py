@@ -14,14 +14,13 @@ seconds, are what to read.
 """
 from __future__ import annotations
 
-import argparse
 import cProfile
 import io
 import pstats
 import sys
 import time
 
-import compare as compare_benchmark      # benchmarks/compare.py: the script's folder is first on sys.path
+import compare as compare_benchmark  # benchmarks/compare.py: the script's folder is first on sys.path
 import diagnose as diagnose_benchmark
 from tables import RESULTS
 

@@ -18,7 +18,6 @@ from bayesbeam.inference.evidence import combine_runs
 from bayesbeam.inference.fit import FitConfig
 from tests.inference import cases
 
-
 #: a stand-in run's particles' log likelihood lies this far above its log Z (the Occam factor)
 OCCAM = 5.0
 
