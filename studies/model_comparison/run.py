@@ -89,10 +89,34 @@ def final_estimates() -> str:
                                  study.ROOT / "data" / "examples" / "paper_rootcomp_hammer")
 
 
+def facts(name: str) -> str:
+    """The ranking's head, the best model's checks and discretisation, and the run's time, in a
+    sentence, from the example's comparison.json."""
+    c = comparison(name)
+    best, second = c["ranking"][:2]
+    b = c["models"][best]
+    check = b["discretisation_check"]
+    p_values = [v["p_value"] for v in b["ppc"].values() if v["p_value"] is not None]
+    return (f"{best} is ranked first, {-c['models'][second]['log_bayes_factor_vs_best']:.1f} nats ahead of "
+            f"{second} (posterior probability {b['probability']:.2f}); its smallest posterior predictive p-value "
+            f"is {min(p_values):.2g}; the discretisation check moves its optimum by {check['max_shift_sd']:.2g} "
+            f"posterior sd from N = {check['n_intervals']} to {check['refined_n_intervals']} "
+            f"({'passed' if check['passed'] else 'failed'}); `seconds` {c['seconds']:.0f} in comparison.json.")
+
+
+def best_estimates(name: str) -> str:
+    """The best model's posterior against the example's truth."""
+    c = comparison(name)
+    return study.estimates_table(c["models"][c["best"]]["posterior"], c["models"][c["best"]]["effects"],
+                                 study.ROOT / "data" / "examples" / name)
+
+
 def blocks() -> dict[Path, dict[str, str]]:
     from bayesbeam.report.comparison import ranking_markdown
 
     return {HERE / "README.md": {**{f"comparison-{name}": ranking_markdown(comparison(name)) for name in EXAMPLES},
+                                 **{f"facts-{name}": facts(name) for name in EXAMPLES},
+                                 **{f"estimates-{name}": best_estimates(name) for name in EXAMPLES[:2]},
                                  "blind-chain": blind_chain(), "blind-chain-estimates": final_estimates()},
             study.ROOT / "README.md": {"first-run": first_run()}}
 
