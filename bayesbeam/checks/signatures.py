@@ -45,7 +45,9 @@ both signs only for the axial load):
   linearised at zero, because the first-order part of some is exactly the EI direction;
 * nonlinear effects (quadratic_drag, dry_friction): features through the data's own estimators
   (ERA, envelope, band amplitude, phase) on a noise-free simulation, and the signature's zero is
-  the same estimators at :math:`\delta = 0` (their bias on the baseline's response is no part of
+  the same estimators where the effect vanishes (:math:`\delta = 0`; for a root spring, which
+  vanishes only as k_theta -> inf, the baseline model itself; so also for a linear effect screened
+  against a baseline that holds a nonlinear one) (their bias on the baseline's response is no part of
   the effect; measured from the exact poles instead, it swamps the linearisation and hides 80 mN of
   friction). First linearised, :math:`S_e(\delta) \approx \delta J_e` with J from a probe value
   scaled to change the response by :data:`PROBE_CHANGE` (RMS):
@@ -195,11 +197,11 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None)
 # ---------------------------------------------------------------------------- features of a model
 class _Evaluator:
     """The feature vector of a model at given parameters: exact for linear models, through the
-    data's estimators (noise-free simulation) when an effect is nonlinear."""
+    data's estimators (noise-free simulation) when an effect is nonlinear or ``estimators`` is set."""
 
-    def __init__(self, model, setting):
+    def __init__(self, model, setting, estimators: bool = False):
         self.model, self.setting = model, setting
-        self.exact = all(e.linear for e in model.effects)
+        self.exact = not estimators and all(e.linear for e in model.effects)
 
     def __call__(self, params) -> np.ndarray:
         s = self.setting
@@ -324,7 +326,7 @@ def _candidate(name, aug, posterior, theta, base_features, space, mismatch, leve
     parameter = effect.parameters[0]
     prior = default_priors(model.recording.beam, (parameter,), {}, model.recording.setup)[parameter]
     support = [float(np.exp(v)) if prior.log_scale else float(v) for v in prior.bounds()]
-    sig = _Signature(aug, parameter, posterior, theta, base_features, space)
+    sig = _Signature(aug, parameter, posterior, theta, base_features, space, effect.absent[parameter])
     value, interval, chi2, best = _grid_fit(sig, space, _grid(support), support) if effect.linear else \
         _linearised_fit(sig, space, support)
     delta = max(space.chi2_0 - chi2, 0.0)
@@ -345,15 +347,21 @@ class _Signature:
     shift, the damping parameters a sensor mass's redistribution) is neither linearised nor
     extrapolated from the baseline's Jacobian."""
 
-    def __init__(self, aug, parameter, posterior, theta, base_features, space):
+    def __init__(self, aug, parameter, posterior, theta, base_features, space, absent: float):
         self.evaluate = _Evaluator(aug, space.setting)
         self.parameter, self.posterior, self.theta = parameter, posterior, theta
         self.space = space
         # a nonlinear model's features come from the data's estimators, whose bias on a noise-free
         # response (ERA's, the envelope's) is no part of the effect: its zero is the same estimators
-        # at delta = 0, not the baseline's exact poles
-        self.base = base_features if self.evaluate.exact else \
-            self.evaluate({**posterior.split(theta)[0], parameter: 0.0})
+        # where the effect vanishes, not the baseline's exact poles. Where it vanishes only in a
+        # limit (a root spring's k_theta -> inf, the clamp), that is the baseline model itself.
+        params = posterior.split(theta)[0]
+        if self.evaluate.exact:
+            self.base = base_features
+        elif np.isfinite(absent):
+            self.base = self.evaluate({**params, parameter: absent})
+        else:
+            self.base = _Evaluator(posterior.likelihood.model, space.setting, estimators=True)(params)
         k = space.jacobian.shape[1]
         support = np.array([posterior.priors[i].bounds() for i in range(k)]).reshape(k, 2)
         # the posterior median may lie past a log-normal prior's +-4 sd support: never exclude it

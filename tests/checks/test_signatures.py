@@ -26,6 +26,7 @@ before the baseline re-adjusts, the estimates miss by factors 3 to 5.5 (k_theta 
 2.4 g, F_c 16 mN), and friction's signature measured from the exact poles' zero gives 80 mN no
 Delta chi2 at all.
 """
+from dataclasses import replace
 from functools import cache
 
 import numpy as np
@@ -37,6 +38,7 @@ from bayesbeam.inference.fit import prepare
 from bayesbeam.inference.sampler import find_optimum
 from tests.checks.test_discrepancy import REPLICATES, fit_and_locate, fitted, recording
 from tests.diagnosis_cases import CONCEALED, FIT, N_INTERVALS, reference
+from tests.inference import cases
 
 #: case -> allowed factor between the screen's estimate and the truth
 FACTOR = {"root_compliance": 1.5, "sensor_mass": 1.5, "measurement_delay": 1.2, "axial_load": 1.5,
@@ -119,3 +121,20 @@ def test_effects_the_model_cannot_take_are_left_out_with_the_reason():
     notes = " ".join(result.notes)
     for name in ("quadratic_drag", "dry_friction"):
         assert f"{name} not ranked: {name} cannot be combined with a memory mechanism" in notes
+
+
+def test_a_nonlinear_baseline_screens_a_root_spring_against_the_clamp():
+    """With friction in the baseline, every candidate's features come from the data's estimators,
+    and a signature's zero is those estimators where the effect vanishes. A root spring vanishes
+    only in the limit k_theta -> inf (the clamp): its zero is the baseline model itself (it was
+    taken at k_theta = 0, which the model refuses, and the diagnosis of a drag recording stopped
+    there in its second round). Baseline q1 + 1 mN of tip friction at the truth of the cheap
+    root-spring recording, draws 0.1 % about it: the spring is screened and sized inside its prior."""
+    post = prepare(recording("root_compliance"), "q1", replace(FIT, effects=("dry_friction",)), N_INTERVALS).posterior
+    values = {**cases.TRUTH["q1"], "F_c": 1e-3}
+    params = {n: values[n] for n in post.model_names}
+    theta = post.coordinates({**params, **post.likelihood.profile_noise(params)})
+    draws = np.random.default_rng(1).multivariate_normal(theta, np.diag((1e-3 * np.maximum(np.abs(theta), 1e-3)) ** 2), 100)
+    result = rank_effects(post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES))
+    spring = next(c for c in result.candidates if c.effect == "root_compliance")
+    assert spring.within_prior and np.isfinite(spring.delta_chi2)
