@@ -45,11 +45,11 @@ both signs only for the axial load):
   linearised at zero, because the first-order part of some is exactly the EI direction;
 * nonlinear effects (quadratic_drag, dry_friction): features through the data's own estimators
   (ERA, envelope, band amplitude, phase) on a noise-free simulation, and the signature's zero is
-  the same estimators where the effect vanishes (:math:`\delta = 0`; for a root spring, which
-  vanishes only as k_theta -> inf, the baseline model itself; so also for a linear effect screened
-  against a baseline that holds a nonlinear one) (their bias on the baseline's response is no part of
-  the effect; measured from the exact poles instead, it swamps the linearisation and hides 80 mN of
-  friction). First linearised, :math:`S_e(\delta) \approx \delta J_e` with J from a probe value
+  the same estimators where the effect vanishes, :math:`\delta = 0` (their bias on the baseline's
+  response is no part of the effect; measured from the exact poles instead, it swamps the
+  linearisation and hides 80 mN of friction). So is every effect's, linear ones included, against
+  a baseline that holds a nonlinear effect; a root spring vanishes only as k_theta -> inf, and its
+  zero is the baseline model itself. First linearised, :math:`S_e(\delta) \approx \delta J_e` with J from a probe value
   scaled to change the response by :data:`PROBE_CHANGE` (RMS):
   :math:`\hat\delta = \max(0, \langle PWJ, PWd\rangle/\|PWJ\|^2)`; then, since the effect is far
   from linear at the sizes that matter (50 mN of tip friction: the damping signature grows less
