@@ -1,13 +1,13 @@
 """Where the time goes: a benchmark's job run in one process under cProfile, its top entries saved.
 
     python benchmarks/profiles.py compare [--max-frequency HZ] [--path current|baseline]
-    python benchmarks/profiles.py diagnose [--model q1] [--path current|baseline]
+    python benchmarks/profiles.py diagnose [--model q1] [--concealed NAME] [--path current|baseline]
 
 runs the job of ``benchmarks/compare.py`` or ``benchmarks/diagnose.py`` (same recording, same
 settings; ``--path`` picks that script's baseline or current settings) on a serial executor, so
 that every evaluation is in the profile (the benchmarks themselves spread the jobs over worker
 processes, which a profile of the main process would show only as waiting), and writes
-``benchmarks/results/<benchmark>[_full].<path>.profile.txt``: the wall time and the
+``benchmarks/results/<result>.<path>.profile.txt`` (the result's name as in benchmarks/README.md): the wall time and the
 :data:`TOP` entries by cumulative and by own time. A serial run takes about twice a two-process
 run's wall time, and cProfile adds its own overhead to every Python call: the shares, not the
 seconds, are what to read.
@@ -38,11 +38,13 @@ def job(benchmark: str, args, path: str):
     module = {"compare": compare_benchmark, "diagnose": diagnose_benchmark}[benchmark]
     baseline, current = module.configs(args)
     config = current if path == "current" else baseline
-    rec = load_recording(module.EXAMPLE)
     if benchmark == "compare":
+        rec = load_recording(module.EXAMPLE)
         name = "compare" if args.max_frequency else "compare_full"
         return (lambda: compare(rec, DEFAULT_MODELS, config, SerialExecutor())), name
-    return (lambda: diagnose(rec, args.model, config, SerialExecutor())), "diagnose"
+    rec, model, _ = diagnose_benchmark.recording(args)
+    name = "diagnose_concealed" if args.concealed else "diagnose"
+    return (lambda: diagnose(rec, model, config, SerialExecutor())), name
 
 
 def summary(profile: cProfile.Profile, seconds: float, title: str) -> str:
