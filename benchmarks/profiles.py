@@ -51,8 +51,8 @@ def summary(profile: cProfile.Profile, seconds: float, title: str) -> str:
     """The profile's top entries by cumulative and by own time, under a title line."""
     text = io.StringIO()
     text.write(f"{title}\nwall time {seconds:.1f} s under cProfile, one process\n")
-    for order in ("cumulative", "tottime"):
-        text.write(f"\n--- top {TOP} by {order} time ---\n")
+    for order, label in (("cumulative", "cumulative time"), ("tottime", "own time")):
+        text.write(f"\n--- top {TOP} by {label} ---\n")
         stats = pstats.Stats(profile, stream=text)
         stats.strip_dirs().sort_stats(order).print_stats(TOP)
     return text.getvalue()
