@@ -31,11 +31,13 @@ from bayesbeam.io import load_recording
 
 #: entries kept per ordering
 TOP = 25
+#: the benchmark scripts whose jobs can be profiled
+BENCHMARKS = {"compare": compare_benchmark, "diagnose": diagnose_benchmark}
 
 
 def job(benchmark: str, args, path: str):
     """The benchmark's job at its ``path`` settings, as a callable of no arguments, and its result's name."""
-    module = {"compare": compare_benchmark, "diagnose": diagnose_benchmark}[benchmark]
+    module = BENCHMARKS[benchmark]
     baseline, current = module.configs(args)
     config = current if path == "current" else baseline
     if benchmark == "compare":
@@ -60,11 +62,11 @@ def summary(profile: cProfile.Profile, seconds: float, title: str) -> str:
 
 def main(argv=None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] not in ("compare", "diagnose"):
+    if not argv or argv[0] not in BENCHMARKS:
         print(__doc__)
         return 2
     benchmark, rest = argv[0], argv[1:]
-    parser = {"compare": compare_benchmark, "diagnose": diagnose_benchmark}[benchmark].parser()
+    parser = BENCHMARKS[benchmark].parser()
     parser.add_argument("--path", choices=("current", "baseline"), default="current")
     args = parser.parse_args(rest)
     run, name = job(benchmark, args, args.path)

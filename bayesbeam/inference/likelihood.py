@@ -312,7 +312,11 @@ class Likelihood:
 
     def _batch(self, params: Sequence[dict], v: np.ndarray) -> np.ndarray:
         """:meth:`log_likelihoods` of one chunk; ``v`` (P, D, c) the noise variances."""
-        z, psi = self._band_residuals(params)
+        return self._densities(*self._band_residuals(params), v)
+
+    def _densities(self, z: np.ndarray, psi: np.ndarray | None, v: np.ndarray) -> np.ndarray:
+        """The log likelihood of each set from its band residuals ``z`` (P, D, c) and latent columns
+        ``psi`` (:meth:`_band_residuals`) at noise variances ``v`` (P, D, c): (P,)."""
         if psi is None:
             return -0.5 * np.sum(np.log(2 * np.pi * v) + z**2 / v, axis=(1, 2))
         return _marginal_batch(z, psi, self.force_noise.variance, v)
@@ -344,13 +348,8 @@ class Likelihood:
         variances, values = [], []
         for i in range(0, len(params), self.batch_size):
             z, psi = self._band_residuals(params[i:i + self.batch_size])
-            if psi is None:
-                v = clip(np.mean(z**2, axis=1))
-                values.append(-0.5 * np.sum(np.log(2 * np.pi * v[:, None]) + z**2 / v[:, None], axis=(1, 2)))
-            else:
-                v = clip(_profiled_variance_batch(z, psi, self.force_noise.variance))
-                values.append(_marginal_batch(z, psi, self.force_noise.variance,
-                                              np.broadcast_to(v[:, None], z.shape)))
+            v = clip(np.mean(z**2, axis=1) if psi is None else _profiled_variance_batch(z, psi, self.force_noise.variance))
+            values.append(self._densities(z, psi, np.broadcast_to(v[:, None], z.shape)))
             variances.append(v)
         return np.concatenate(variances), np.concatenate(values)
 

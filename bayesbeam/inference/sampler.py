@@ -180,16 +180,19 @@ def _search_scale(counter, x, bounds) -> np.ndarray:
     """A covariance to shape the polish's simplex when none is known: the inverse curvature of the
     profiled log posterior along each coordinate at ``x`` (an eighth of the prior's width where it
     is not curved downward there: a start away from the peak)."""
-    step = 1e-4
-    f0 = counter(x)
-    variances = []
-    for i, (low, high) in enumerate(bounds):
-        e = np.zeros(len(x))
-        e[i] = step
-        curvature = -(counter(x + e) - 2 * f0 + counter(x - e)) / step**2
-        fallback = ((high - low) / 8) ** 2
-        variances.append(min(1.0 / curvature, fallback) if np.isfinite(curvature) and curvature > 0 else fallback)
-    return np.diag(variances)
+    fallback = (np.array([high - low for low, high in bounds]) / 8) ** 2
+    curvature = _axis_curvatures(counter, x, 1e-4)
+    with np.errstate(divide="ignore"):
+        variance = 1.0 / curvature
+    bent = np.isfinite(curvature) & (curvature > 0)
+    return np.diag(np.where(bent, np.minimum(variance, fallback), fallback))
+
+
+def _axis_curvatures(f, x, step: float, f0: float | None = None) -> np.ndarray:
+    """-d^2 f / dx_i^2 along each coordinate at ``x`` by central differences (``f0`` = f(x) if known)."""
+    f0 = f(x) if f0 is None else f0
+    e = np.eye(len(x)) * step
+    return np.array([-(f(x + e[i]) - 2 * f0 + f(x - e[i])) / step**2 for i in range(len(x))])
 
 
 #: a restarted polish counts as a move when it gains this much log posterior
@@ -367,7 +370,7 @@ def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4
         np.linalg.cholesky(cov)
         return cov
     except np.linalg.LinAlgError:
-        diag = np.array([-(post(theta + e[i]) - 2 * f0 + post(theta - e[i])) / step**2 for i in range(d)])
+        diag = _axis_curvatures(post, theta, step, f0)
         return np.diag(np.where(diag > 0, 1.0 / np.maximum(diag, 1e-300), 1e-6))
 
 
