@@ -26,13 +26,10 @@ HERE = Path(__file__).resolve().parent
 RECORDINGS, OUT = HERE / "recordings", HERE / "out"
 #: top of the fitted band: modes 1-4 of the paper beam, 1-3 of the aluminium strip
 MAX_FREQUENCY = 150.0
-#: spline degree of the diagnoses (cubic, as the committed outputs were computed)
-DEGREE = 3
-
 
 def command(name: str, truth: dict) -> list[str]:
     return ["diagnose", str(RECORDINGS / name), "--model", truth["damping_model"], "--max-frequency",
-            str(MAX_FREQUENCY), "--degree", str(DEGREE), "--executor", "serial", "--quiet", "--overwrite", "--out", str(OUT / name)]
+            str(MAX_FREQUENCY), "--executor", "serial", "--quiet", "--overwrite", "--out", str(OUT / name)]
 
 
 def run_one(name: str) -> tuple[str, float, int]:
