@@ -306,17 +306,26 @@ def newton_shift(post: LogPosterior, theta: np.ndarray, covariance: np.ndarray, 
     A coordinate within one step of its prior's edge (an optimum against the edge: a tip sensor's
     offset at the tip, a delay at 0) is held there, as the finer optimum is while the likelihood
     pushes against the edge: its shift is 0 and the others move by the Newton step with it fixed
-    (the conditional covariance).
+    (the conditional covariance). So is one whose log posterior a step away is -inf on one side
+    only: an optimum against a constraint inside the priors' box (q2's memory term taking nearly
+    all the static stiffness, :func:`laplace_covariance`). Not finite on both sides: inf.
     """
     d = len(theta)
     held = _near_edge(post, theta, step)
-    free = ~held
-    grad = np.array([(post(theta + step * e) - post(theta - step * e)) / (2 * step) if f else 0.0
-                     for e, f in zip(np.eye(d), free)])
-    if not np.all(np.isfinite(grad)):
-        return np.full(d, np.inf)
+    grad = np.zeros(d)
+    for i in np.flatnonzero(~held):
+        e = np.zeros(d)
+        e[i] = step
+        up, down = post(theta + e), post(theta - e)
+        if np.isfinite(up) != np.isfinite(down):
+            held[i] = True
+        elif not np.isfinite(up):
+            return np.full(d, np.inf)
+        else:
+            grad[i] = (up - down) / (2 * step)
     if not held.any():
         return covariance @ grad
+    free = ~held
     cross = covariance[np.ix_(free, held)]
     conditional = covariance[np.ix_(free, free)] - cross @ np.linalg.solve(covariance[np.ix_(held, held)], cross.T)
     shift = np.zeros(d)

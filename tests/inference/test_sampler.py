@@ -15,6 +15,7 @@ from bayesbeam.inference.sampler import (
     _simplex_edges,
     find_optimum,
     laplace_covariance,
+    newton_shift,
 )
 from bayesbeam.io import load_recording
 from tests.inference import cases
@@ -109,6 +110,27 @@ def test_laplace_covariance_at_a_constraint_steps_off_it():
     cov = CORRELATION * np.outer(sds, sds)
     post = GaussianPosterior([0.5, -2.0, -1.7], cov, floor=0.5 - 5e-5)
     np.testing.assert_allclose(laplace_covariance(post, post.mean), cov, rtol=0.01, atol=1e-3 * np.min(sds) ** 2)
+
+
+def test_the_refinement_step_holds_a_coordinate_against_a_constraint():
+    """The coarse optimum sits against a constraint (-inf half a step below it in the first
+    coordinate); the finer model's peak lies elsewhere. The Newton step holds the constrained
+    coordinate (shift 0) and moves the others to the finer Gaussian's conditional peak given it,
+    which for a Gaussian one Newton step reaches exactly (to 1e-6 of each sd: central
+    differences of a quadratic err by rounding only), where the plain step had no finite gradient
+    and reported an infinite shift. -inf on both sides stays inf: no step can be taken."""
+    sds = np.array([1e-3, 1e-2, 0.3])
+    cov = CORRELATION * np.outer(sds, sds)
+    coarse = np.array([0.5, -2.0, -1.7])
+    finer = GaussianPosterior(coarse + [2e-4, 3e-3, -0.05], cov, floor=0.5 - 5e-5)
+    shift = newton_shift(finer, coarse, cov)
+    held, free = [0], [1, 2]
+    conditional_peak = finer.mean[free] + cov[np.ix_(free, held)] @ np.linalg.solve(
+        cov[np.ix_(held, held)], coarse[held] - finer.mean[held])
+    assert shift[0] == 0.0
+    np.testing.assert_allclose(shift[free], conditional_peak - coarse[free], rtol=0, atol=1e-6 * sds[free].min())
+    walled = GaussianPosterior(finer.mean, cov, floor=np.inf)
+    assert np.all(np.isinf(newton_shift(walled, coarse, cov)))
 
 
 def test_the_global_search_starts_where_every_in_band_mode_is_placed():
