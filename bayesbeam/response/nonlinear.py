@@ -175,7 +175,7 @@ def integrate(model, params, initial=None, substeps: int | None = None, *, law=N
         force = solver.run()
         inputs, seq, hold = np.eye(plant.n), force, "cubic"
     else:  # pragma: no cover - guarded by the registry
-        raise ValueError(f"no integrator for effect {effect.name}")
+        raise TypeError(f"no integrator for effect {effect.name}")
     y = model.linear_response(system, values) + plant.response(inputs, seq, hold, model.delay(values))
     return NonlinearSolution(y, plant.h, plant.t_start, force, solver.final_state, solver.record)
 
@@ -190,8 +190,12 @@ def phi1(z):
 
 
 def _modes(system: SecondOrderSystem):
+    """Complex modes (lambda, V, V^-1) of the first-order form. Complex even when every mode is
+    overdamped, where the eigen-solver returns real arrays: the integrator's modal states are
+    complex throughout (and its compiled kernels typed so)."""
     lam, vec = system.state_modes
-    return lam, vec, np.linalg.inv(vec)
+    vec = vec.astype(complex)
+    return lam.astype(complex), vec, np.linalg.inv(vec)
 
 
 def _real_rows(a: np.ndarray) -> np.ndarray:
