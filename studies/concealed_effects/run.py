@@ -74,6 +74,7 @@ def rows() -> list[dict]:
                     "covered": bool(estimate and estimate["q05"] <= value <= estimate["q95"]),
                     "lnB": (added["delta_log_evidence"], added["delta_log_evidence_sd"]) if added else None,
                     "tried": [(c["effect"], c["delta_log_evidence"]) for c in d["candidates"]],
+                    "refused": [c for c in d["candidates"] if not c["added"]],
                     "rms": (d["baseline"]["rms_standardized_residual"], d["final"]["rms_standardized_residual"]),
                     "flags": (d["baseline"]["flags"], d["final"]["flags"]), "unexplained": d["unexplained"],
                     "seconds": d["seconds"]})
@@ -105,6 +106,19 @@ def null_table(nulls: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def refused_table(all_rows: list[dict]) -> str:
+    """Every candidate fitted and not added, with the two conditions of the decision rule."""
+    lines = ["| recording | candidate | ln B (sd) | decisive | map improved | RMS std. residual | flags |",
+             "|" + "---|" * 7]
+    for r in all_rows:
+        for c in r["refused"]:
+            lines.append(f"| {r['name']} | {c['effect']} | {c['delta_log_evidence']:.1f} "
+                         f"({c['delta_log_evidence_sd']:.1f}) | {'yes' if c['decisive'] else 'no'} | "
+                         f"{'yes' if c['map_improved'] else 'no'} | {c['rms_standardized_residual']:.2f} | "
+                         f"{c['flags']} |")
+    return "\n".join(lines)
+
+
 RESULTS = HERE / "results.md"
 
 
@@ -120,7 +134,7 @@ def blocks() -> dict[Path, dict[str, str]]:
              f"Truth inside the 90 % interval: {covered} of {len(found)}. "
              f"False alarms (an effect added to a null recording): {alarms} of {len(nulls)}.**")
     return {RESULTS: {"concealed-score": score, "concealed-effects": effect_table(found),
-                      "concealed-nulls": null_table(nulls)}}
+                      "concealed-nulls": null_table(nulls), "concealed-refused": refused_table(all_rows)}}
 
 
 def main(argv=None) -> int:

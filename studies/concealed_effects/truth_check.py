@@ -6,7 +6,8 @@ When a diagnosis names the right effect but its 90 % interval misses the true va
 are possible: the noise draw (a 90 % interval misses one time in ten, and a strongly correlated
 pair such as EI and k_theta can sit several sd off together), or a systematic error (the fit's
 grid, the band-limited input, the anti-alias filter). This script separates them with the true
-model (damping + effect, told to the fit) at the N the diagnosis chose:
+model (damping + effect, told to the fit) at the N the diagnosis chose (the tool's default
+spline degree, as ``run.py``'s diagnoses):
 
 1. on the study's recording: log likelihood (noise sd profiled) at the truth and at the optimum,
    2 Delta ln L against chi-square with k = number of model parameters (Wilks);
@@ -35,7 +36,7 @@ from bayesbeam.io.atomic import write_text
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import generate
-from run import DEGREE, MAX_FREQUENCY
+from run import MAX_FREQUENCY
 
 
 def true_values(truth: dict) -> dict:
@@ -45,7 +46,7 @@ def true_values(truth: dict) -> dict:
 def optimum(rec, truth: dict, n_intervals: int):
     """(optimum theta, Laplace covariance, posterior, truth's coordinates) of the true model."""
     effects = (truth["effect"],) if truth["effect"] else ()
-    post = prepare(rec, truth["damping_model"], FitConfig(max_frequency=MAX_FREQUENCY, effects=effects, degree=DEGREE),
+    post = prepare(rec, truth["damping_model"], FitConfig(max_frequency=MAX_FREQUENCY, effects=effects),
                    n_intervals).posterior
     values = true_values(truth)
     best = find_optimum(post, np.random.default_rng(0), start=values)
@@ -79,7 +80,7 @@ def main(argv=None) -> int:
     gain = 2 * (profiled_log_likelihood(post, x) - profiled_log_likelihood(post, x_true))
     names = post.model_names
     lines = [(f"# Truth check: {args.name} (true model {truth['damping_model']}"
-             f"{'+' + truth['effect'] if truth['effect'] else ''}, N = {n}, band to {MAX_FREQUENCY:g} Hz)"), "",
+             f"{'+' + truth['effect'] if truth['effect'] else ''}, degree {post.likelihood.model.degree}, N = {n}, band to {MAX_FREQUENCY:g} Hz)"), "",
              "Written by `truth_check.py`; see its docstring for the method.", "",
              "## 1. The study's recording", "",
              (f"2 Delta ln L (optimum vs truth) = {gain:.2f} with k = {k}: chi-square p = "
