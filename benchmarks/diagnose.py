@@ -74,6 +74,12 @@ def recording(args):
     return load_recording(path), args.model or truth["damping_model"], TARGET_SECONDS["concealed"]
 
 
+def result_name(argv) -> str:
+    """The result's name: ``diagnose``, or ``diagnose_NAME`` for a concealed-effects recording."""
+    concealed = parser().parse_known_args(argv)[0].concealed
+    return f"diagnose_{concealed}" if concealed else "diagnose"
+
+
 def main(argv=None) -> int:
     args = parser().parse_args(argv)
     rec, model, target = recording(args)
@@ -99,5 +105,5 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    # a concealed-effects recording is kept apart from the example: both have a block in README.md
-    sys.exit(tables.run("diagnose_concealed" if "--concealed" in sys.argv else "diagnose", main))
+    # each concealed-effects recording is kept apart from the example, with a block of its own in README.md
+    sys.exit(tables.run(result_name(sys.argv[1:]), main))

@@ -20,10 +20,11 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 README = HERE / "README.md"
 #: the benchmarks with a block in README.md, in its order
-NAMES = ("forward", "effects", "sampling", "batch", "compare", "compare_full", "diagnose", "diagnose_concealed",
-         "basis", "ppc")
+NAMES = ("forward", "effects", "sampling", "batch", "compare", "compare_full", "diagnose",
+         "diagnose_paper_quadratic_drag", "diagnose_paper_dry_friction", "basis", "ppc")
 #: results kept under another name than their script's (name -> script): the same benchmark at another setting
-SCRIPTS = {"compare_full": "compare", "diagnose_concealed": "diagnose"}
+SCRIPTS = {"compare_full": "compare", "diagnose_paper_quadratic_drag": "diagnose",
+           "diagnose_paper_dry_friction": "diagnose"}
 
 sys.path.insert(0, str(HERE.parent))          # the working tree's bayesbeam, even if another copy is installed
 
