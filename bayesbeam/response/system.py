@@ -534,6 +534,8 @@ class SecondOrderSystem:
         return (self.relaxation(s + ds) - self.relaxation(s - ds)) / (2 * ds)
 
     def _poles_diagonal(self) -> np.ndarray:
+        """Newton's method on each modal denominator; the modes whose iteration converged
+        (:func:`_converged`)."""
         lam = self.undamped[0]
         d_m, kh_m = np.diag(self._modal_damping), np.diag(self._modal_memory)
         s = 1j * np.sqrt(lam.astype(complex))
@@ -545,7 +547,7 @@ class SecondOrderSystem:
             s = s - step
             if np.all(np.abs(step) <= 1e-13 * np.abs(s)):
                 break
-        return s
+        return s[_converged(step, s)]
 
     def _poles_with_memory(self, count: int) -> np.ndarray:
         """The poles of the ``count`` lowest modes of a non-diagonal memory model."""
@@ -612,7 +614,8 @@ class SecondOrderSystem:
         inverse iteration for the mode shape and a Newton step on :math:`x^T Z(s) x = 0`
         (transposes, not conjugates: Z is complex symmetric, so x serves as left and right
         vector and the iteration converges cubically). The fixed point is a root of det Z:
-        Z(s) x = 0. G'(s) by :meth:`_relaxation_slope`.
+        Z(s) x = 0. G'(s) by :meth:`_relaxation_slope`. Only the modes whose iteration converged
+        are returned (:func:`_converged`).
         """
         lam = self.undamped[0][:count]
         s = 1j * np.sqrt(lam.astype(complex))
@@ -631,7 +634,22 @@ class SecondOrderSystem:
             s = s - step
             if np.all(np.abs(step) <= 1e-13 * np.abs(s)):
                 break
+        else:
+            return s[_converged(step, s)]
         return s
+
+
+def _converged(step: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Which pole iterations converged: a last Newton step below 1e-8 of the pole.
+
+    A mode under a memory term whose loss factor exceeds 1 (fractional damping with c_f omega^nu
+    several times EI) has no pole near its undamped frequency: its root, if any, lies far off
+    (for s^2 + omega^2 (1 + c s^nu) = 0 with c omega^nu >> 1, at |s| ~ (c omega^2)^(1/(2 - nu)),
+    several times omega, decaying within a few periods), and the iteration from i omega wanders
+    without converging, even into the right half-plane, where a passive model has no pole. Such
+    a mode is left out rather than reported at a point that solves nothing: a free decay's
+    basis must hold only solutions of the model."""
+    return np.abs(step) <= 1e-8 * np.abs(s)
 
 
 def undamped_modes(K: np.ndarray, M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -426,3 +426,22 @@ def test_mode_shapes_are_the_null_vectors_of_the_dynamic_stiffness(spec, extra, 
     assert np.max(np.abs(shapes - expected)) < 1e-11
     off = 0.5 * (poles[0] + poles[1])
     np.testing.assert_allclose(system.mode_shapes(np.array([off]))[:, 0], _svd_null_vector(system, off), rtol=1e-12)
+
+
+def test_poles_leave_out_modes_whose_iteration_does_not_converge():
+    """Fractional damping c_f = 1 N m^2 s^nu, nu = 0.64 on the paper beam (EI 44.28 N m^2,
+    diagonal form): from the seventh mode on c_f omega^nu exceeds 2 EI, each such mode's root lies
+    far from i omega_m, and Newton's method from there wandered, once into the right half-plane
+    (Re p = +20 s^-1, on a passive model). Every pole returned makes Z(p) singular to rounding
+    (smallest over largest singular value < 1e-14, measured 7e-17) and lies in the left
+    half-plane. With c_f = 1e-3 every mode converges and every mode's pole is kept."""
+    model = BeamModel(load_recording("data/examples/paper_rootcomp_hammer"), "fractional", n_intervals=16)
+    for c_f in (1.0, 1e-3):
+        system = model.system({"EI": EI, "c_f": c_f, "nu": 0.64})
+        assert system.form == "diagonal"
+        poles = system.poles()
+        assert np.all(poles.real < 0)
+        for p in poles:
+            sv = np.linalg.svd(system.dynamic_stiffness(np.array([p]))[0], compute_uv=False)
+            assert sv[-1] < 1e-14 * sv[0]
+    assert poles.size == system.size
