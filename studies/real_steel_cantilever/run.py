@@ -132,12 +132,23 @@ def setup_table(summary: dict) -> str:
                            f"l, m (stated {length:g} +- {tolerance:g})", "dx_tip, m"], rows)
 
 
+def command_block(*names: str) -> str:
+    """The shell lines of the named runs, as a user would type them."""
+    lines = [f"OPENBLAS_NUM_THREADS=1 bayesbeam {' '.join(COMMANDS[n])}" for n in names]
+    return "```bash\n" + "\n".join(lines) + "\n```"
+
+
 def blocks() -> dict[Path, dict[str, str]]:
     from bayesbeam.report.comparison import ranking_markdown
 
     summary = json.loads((HERE / "compare" / "comparison.json").read_text())
     diagnosis = json.loads((HERE / "diagnose" / "diagnosis.json").read_text())
     return {HERE / "README.md": {
+        "real-steel-command-compare": command_block("compare"),
+        "real-steel-command-compare_n24": command_block("compare_n24"),
+        "real-steel-command-diagnose": command_block("diagnose"),
+        "real-steel-command-compare_clamp": command_block("compare_clamp"),
+        "real-steel-command-structure": command_block("diagnose_blind", "diagnose_q1", "compare_structure"),
         "real-steel-compare": ranking_markdown(summary),
         "real-steel-compare_n24": ranking_markdown(json.loads((HERE / "compare_n24" / "comparison.json").read_text())),
         "real-steel-damping": mode_table(summary, "measured_damping_ratio", "predicted_damping_ratio_90", 100.0, ".3f"),
