@@ -241,3 +241,48 @@ def change_and_size(new, old):
         change = max(change, abs(a[i] - b[i]))
         size = max(size, abs(a[i]))
     return change, size
+
+
+@numba.njit(cache=True)
+def drag_block(z0, u, cubic, quad, E, vlin, to_velocity, rows_t, rows_w, to_modal, c_q, c_v, rtol, sweeps):
+    """The fixed-point iteration of one drag block: forces g = -c_q |v| v - c_v v at the Gauss
+    points of nodes k+1 .. k+S, each sweep the states from the last sweep's forces.
+
+    ``u`` (S + 2, m): the modal forces at nodes k-1 .. k+S, rows 0 and 1 known (the rest is
+    overwritten). ``vlin`` (S, n): the linear response's generalized velocities at the block's
+    nodes, or (0, n) for none. First guess: the block's own forces zero. Stops when the largest
+    change of a force is at most ``rtol`` x the largest force (or exactly 0); gives up after
+    ``sweeps`` sweeps or when a sweep changes the forces by more than half the sweep before.
+    Returns (converged, sweeps taken, forces (S, n_q) the states were computed from, states
+    (S, m), Gauss-point velocities (S, n_q), the forces those velocities give).
+    """
+    S = u.shape[0] - 2
+    m = E.size
+    states = np.empty((S, m), dtype=np.complex128)
+    u[2:] = 0.0
+    v = drag_velocities(z0, u, cubic, quad, E, vlin, to_velocity, rows_t, states)
+    g = -c_q * np.abs(v) * v - c_v * v
+    g_new = g
+    u_real = u.view(np.float64)
+    prev = np.inf
+    for sweep in range(1, sweeps + 1):
+        u_real[2:] = np.dot(np.dot(g, rows_w), to_modal)
+        v = drag_velocities(z0, u, cubic, quad, E, vlin, to_velocity, rows_t, states)
+        g_new = -c_q * np.abs(v) * v - c_v * v
+        delta, size = change_and_size(g_new, g)
+        if delta <= rtol * size or delta == 0.0:
+            return True, sweep, g, states, v, g_new
+        if delta > 0.5 * prev:
+            return False, sweep, g, states, v, g_new
+        prev, g = delta, g_new
+    return False, sweeps, g, states, v, g_new
+
+
+@numba.njit(cache=True)
+def drag_velocities(z0, u, cubic, quad, E, vlin, to_velocity, rows_t, states):
+    """Gauss-point velocities (S, n_q) of the states (:func:`drag_states`, into ``states``)."""
+    drag_states(z0, u, cubic, quad, E, states)
+    wd = np.dot(states.view(np.float64), to_velocity)
+    if vlin.shape[0]:
+        wd += vlin
+    return np.dot(wd, rows_t)

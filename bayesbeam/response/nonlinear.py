@@ -44,10 +44,12 @@ On step l the force is the cubic through nodes l-1 .. l+2; the modal state then 
 of the new nodes: implicit, fourth order for smooth forces (|v| v has a jump of its second
 derivative where v changes sign: third to fourth order observed). Blocks of up to 256 nodes
 (plus one of overlap, whose last step uses the quadratic through l-1 .. l+1) are solved together
-by fixed-point iteration to :data:`DRAG_RTOL`, the block's linear recurrence stepped node by node
-in compiled code (:mod:`bayesbeam.response._kernels`); where the iteration contracts too slowly
-the block shrinks, down to one node with Newton's method, so any c_q is solved. Default U = 2 (:data:`SUBSTEPS`): on a hammer test of
-the paper's beam 0.7% of the drag effect's RMS (fourth order: 0.05% at U = 4).
+by fixed-point iteration to :data:`DRAG_RTOL`, every sweep of a block (its linear recurrence
+stepped node by node, the products to and from the Gauss points) in compiled code
+(:func:`bayesbeam.response._kernels.drag_block`); where the iteration contracts too slowly the
+block shrinks, down to one node with Newton's method, so any c_q is solved. Default U = 2
+(:data:`SUBSTEPS`): on a hammer test of the paper's beam 0.7% of the drag effect's RMS (fourth
+order: 0.05% at U = 4).
 
 Friction: exact stick-slip, events located inside the steps
 -----------------------------------------------------------
@@ -110,6 +112,8 @@ MARGIN = 160
 DRAG_RTOL = 1e-8
 #: nodes per drag block: longer blocks need a few more sweeps, shorter ones more numpy calls
 _DRAG_BLOCK = 256
+#: fixed-point sweeps of a drag block before it is shrunk (it is, sooner, when they stall)
+_DRAG_SWEEPS = 60
 _SINC_HALF, _SINC_BETA = 16, 16.0
 _I0_BETA = float(special.i0(_SINC_BETA))
 _WINDOW_MIN, _WINDOW_MAX = 16, 1024
@@ -142,13 +146,14 @@ def simulate_nonlinear(model, params, initial=None, substeps: int | None = None)
     return integrate(model, params, initial, substeps).output
 
 
-def integrate(model, params, initial=None, substeps: int | None = None, *, law=None,
+def integrate(model, params, initial=None, substeps: int | None = None, *, drag_law=None,
               record: bool = False) -> NonlinearSolution:
     """Integrate ``model`` at ``params``; see the module docstring for the method.
 
     ``substeps`` U (fine steps per sample) defaults to :data:`SUBSTEPS` of the effect.
-    ``law`` (drag only, for verification) replaces the drag per unit length ``g(v)`` by a pair
-    ``(g, dg/dv)`` of vectorised functions. ``record`` keeps per-node diagnostics.
+    ``drag_law`` (drag only, for verification) ``(c_q, c_v)`` replaces the drag per unit length
+    by -c_q |v| v - c_v v (c_q = 0: a linear force, which the exact solver can check).
+    ``record`` keeps per-node diagnostics.
     """
     if initial is not None:
         raise ValueError("`initial` applies to free_decay recordings only")
@@ -168,10 +173,7 @@ def integrate(model, params, initial=None, substeps: int | None = None, *, law=N
         inputs, seq, hold = e_row[:, None], force[:, None, :], "moments"
     elif isinstance(effect, QuadraticDrag):
         rows, weights = effect.quadrature(ops)
-        if law is None:
-            c_q = values["c_q"]
-            law = (QuadraticDrag.law(values), lambda v: -2.0 * c_q * np.abs(v))
-        solver = _Drag(plant, rows, weights, law, record)
+        solver = _Drag(plant, rows, weights, drag_law or (values["c_q"], 0.0), record)
         force = solver.run()
         inputs, seq, hold = np.eye(plant.n), force, "cubic"
     else:  # pragma: no cover - guarded by the registry
@@ -783,9 +785,10 @@ class _Drag:
     are found together by fixed-point iteration on g = law(v); see the module docstring.
     """
 
-    def __init__(self, plant: _Plant, rows: np.ndarray, weights: np.ndarray, law, record: bool):
+    def __init__(self, plant: _Plant, rows: np.ndarray, weights: np.ndarray, law: tuple[float, float],
+                 record: bool):
         self.p, self.rows = plant, rows
-        self.law, self.dlaw = law
+        self.c_q, self.c_v = law           # drag per unit length -c_q |v| v - c_v v
         self.keep = record
         p, n, h = plant, plant.n, plant.h
         # one mode of each complex-conjugate pair (twice its real part), and the real modes
@@ -799,7 +802,7 @@ class _Drag:
         # velocities, in real forms on the complex vectors' memory
         self.rows_w, self.rows_T = rows * weights[:, None], np.ascontiguousarray(rows.T)
         self.to_modal = _complex_columns((p.Vi[self.modes, n:] @ p.Minv).T)            # (n, 2m)
-        self.to_velocity = _real_rows(p.V[n:, self.modes] * self.twice).T               # (2m, n)
+        self.to_velocity = np.ascontiguousarray(_real_rows(p.V[n:, self.modes] * self.twice).T)  # (2m, n)
         # cubic weights for the resolved modes; the linear hold (trapezoidal rule) for modes with
         # |lambda h| > 1, on which a cubic of aliased samples can pump energy (seen at U = 2)
         resolved = np.abs(lam * h) <= _RESOLVED
@@ -810,27 +813,32 @@ class _Drag:
         self.quad = np.array([np.where(resolved, h * w, lw) for w, lw in
                               zip(hold_weights(lam * h, _QUADRATIC_NODES), [zero] + linear)])
         self.E = np.exp(lam * h)
-        # the linear response's generalized velocities at the nodes
-        self.vlin = p.fine(p.linear_spectrum(np.eye(n), order=1)) if p.forced else None
+        # the linear response's generalized velocities at the nodes (none: a release)
+        self.vlin = p.fine(p.linear_spectrum(np.eye(n), order=1)) if p.forced else np.zeros((0, n))
+
+    def law(self, v: np.ndarray) -> np.ndarray:
+        """The drag per unit length (N/m) at the velocities v (m/s)."""
+        return -self.c_q * np.abs(v) * v - self.c_v * v
 
     def _states(self, z0: np.ndarray, u: np.ndarray, k: int):
         """States at nodes k+1 .. k+S (S, m) from ``z0`` at node k, and their Gauss-point velocities.
 
-        ``u`` (S + 2, m): the modal forces at nodes k-1 .. k+S (:func:`_kernels.drag_states`).
+        ``u`` (S + 2, m): the modal forces at nodes k-1 .. k+S (:func:`_kernels.drag_velocities`).
         """
         z = np.empty((u.shape[0] - 2, self.m), dtype=complex)
-        _kernels.drag_states(z0, u, self.cubic, self.quad, self.E, z)
-        wd = z.view(float) @ self.to_velocity
-        if self.vlin is not None:
-            wd += self.vlin[k + 1:k + z.shape[0] + 1]
-        return z, wd @ self.rows_T
+        return z, _kernels.drag_velocities(z0, u, self.cubic, self.quad, self.E, self._linear_velocities(k, z.shape[0]),
+                                           self.to_velocity, self.rows_T, z)
+
+    def _linear_velocities(self, k: int, count: int) -> np.ndarray:
+        """The linear response's generalized velocities at nodes k+1 .. k+count, or (0, n) for none."""
+        return self.vlin[k + 1:k + count + 1] if self.vlin.size else self.vlin
 
     def run(self) -> np.ndarray:
         p = self.p
         last = p.n_nodes - 1
         n_q = self.rows.shape[0]
         z = (p.Vi @ p.x0)[self.modes]
-        v0 = (self.vlin[0] @ self.rows_T if self.vlin is not None else 0.0) + (self.C @ z).real
+        v0 = (self.vlin[0] @ self.rows_T if self.vlin.size else 0.0) + (self.C @ z).real
         g_nodes = np.zeros((p.n_nodes + 1, n_q))       # row 0 is node -1 (at rest: no force)
         g_nodes[1] = self.law(v0)
         if self.keep:
@@ -843,21 +851,10 @@ class _Drag:
             S = L + 1 if k + L < last else L                # one node of overlap when possible
             u = np.zeros((S + 2, self.m), dtype=complex)   # modal forces at nodes k-1 .. k+S
             u[:2] = self._modal_input(g_nodes[k:k + 2])
-            # first guess: the block's own forces zero
-            g = self.law(self._states(z, u, k)[1])
-            prev, ok = np.inf, False
-            for _ in range(60):
-                np.matmul(g @ self.rows_w, self.to_modal, out=u.view(float)[2:])
-                states, v = self._states(z, u, k)
-                g_new = self.law(v)
-                delta, size = _kernels.change_and_size(g_new, g)
-                self.iterations += 1
-                if delta <= DRAG_RTOL * size or delta == 0.0:
-                    ok = True
-                    break
-                if delta > 0.5 * prev:
-                    break
-                prev, g = delta, g_new
+            ok, sweeps, g, states, v, g_new = _kernels.drag_block(
+                z, u, self.cubic, self.quad, self.E, self._linear_velocities(k, S), self.to_velocity, self.rows_T,
+                self.rows_w, self.to_modal, self.c_q, self.c_v, DRAG_RTOL, _DRAG_SWEEPS)
+            self.iterations += sweeps
             if not ok:
                 if L > 1:
                     block = max(1, L // 4)
@@ -902,7 +899,8 @@ class _Drag:
         for _ in range(50):
             v = v_c.ravel() + R @ g
             r = g - self.law(v)
-            jac = np.eye(g.size) - self.dlaw(v)[:, None] * R
+            slope = -2.0 * self.c_q * np.abs(v) - self.c_v          # d law / dv
+            jac = np.eye(g.size) - slope[:, None] * R
             dg = np.linalg.solve(jac, -r)
             g = g + dg
             if np.max(np.abs(dg)) <= DRAG_RTOL * max(np.max(np.abs(g)), 1e-300):

@@ -287,11 +287,10 @@ def test_drag_integrator_on_a_linear_force_converges_to_the_exact_solver():
     extra = 3.0
     exact = BeamModel(rec, "q1", 8).simulate({**p, "gamma": p["gamma"] + extra})
     model = BeamModel(rec, "q1", 8, effects="quadratic_drag")
-    law = (lambda v: -extra * v, lambda v: -extra * np.ones_like(v))
     peak = np.max(np.abs(exact), axis=0)
     errs = []
     for U in (2, 4, 8):
-        y = nl.integrate(model, {**p, "c_q": 1.0}, substeps=U, law=law).output
+        y = nl.integrate(model, {**p, "c_q": 1.0}, substeps=U, drag_law=(0.0, extra)).output
         errs.append(np.max(np.max(np.abs(in_band(y - exact, fs)), axis=0) / peak))
         if U >= 4:
             assert np.max(np.max(np.abs(y - exact), axis=0) / peak) < 3e-4
@@ -317,8 +316,7 @@ def test_drag_integrator_on_an_overdamped_beam():
     peak = np.max(np.abs(exact), axis=0)
     assert np.all(np.max(np.abs(linear.simulate(p) - exact), axis=0) / peak > 5e-3)
     model = BeamModel(rec, "q1", 8, effects="quadratic_drag")
-    law = (lambda v: -extra * v, lambda v: -extra * np.ones_like(v))
-    errs = [np.max(np.max(np.abs(in_band(nl.integrate(model, {**p, "c_q": 1.0}, substeps=U, law=law).output
+    errs = [np.max(np.max(np.abs(in_band(nl.integrate(model, {**p, "c_q": 1.0}, substeps=U, drag_law=(0.0, extra)).output
                                          - exact, fs)), axis=0) / peak) for U in (1, 2)]
     assert errs[0] / errs[1] > 8, errs
     assert errs[1] < 1e-4, errs
