@@ -25,6 +25,10 @@ NAMES = ("forward", "effects", "sampling", "batch", "compare", "compare_full", "
 #: results kept under another name than their script's (name -> script): the same benchmark at another setting
 SCRIPTS = {"compare_full": "compare", "diagnose_paper_quadratic_drag": "diagnose",
            "diagnose_paper_dry_friction": "diagnose"}
+#: the arguments that make a script produce the result of that name (none: its default run)
+ARGUMENTS = {"compare": ["--max-frequency", "150"],
+             "diagnose_paper_quadratic_drag": ["--concealed", "paper_quadratic_drag"],
+             "diagnose_paper_dry_friction": ["--concealed", "paper_dry_friction"]}
 
 sys.path.insert(0, str(HERE.parent))          # the working tree's bayesbeam, even if another copy is installed
 
@@ -37,21 +41,46 @@ def render(name: str) -> str:
     """The README block of benchmark ``name``, from benchmarks/results/<name>.json."""
     path = RESULTS / f"{name}.json"
     if not path.exists():
-        return (f"Not measured yet: this table is produced by `{command(name, [])}` (see above), which writes "
+        return (f"Not measured yet: this table is produced by `{command(name, ARGUMENTS.get(name, []))}` (see above), which writes "
                 f"`benchmarks/results/{name}.json`; nothing is shown here until it has been run.")
     result = json.loads(path.read_text())
     return (f"Output of `{result['command']}` ({result['seconds']:.0f} s wall time; "
             f"`benchmarks/results/{name}.json`):\n\n```text\n{result['output'].strip()}\n```")
 
 
+#: the timed jobs with a wall-time target: result name -> what it runs
+TARGETS = {"compare": "`compare`, five default models, 150 Hz", "compare_full": "`compare`, five default models, default band",
+           "diagnose": "`diagnose`, no `--model`, paper_rootcomp_hammer",
+           "diagnose_paper_quadratic_drag": "`diagnose`, concealed drag (paper beam, 3 s at 1024 Hz)",
+           "diagnose_paper_dry_friction": "`diagnose`, concealed tip friction (paper beam, 3 s at 1024 Hz)"}
+
+
+def targets() -> str:
+    """The wall-time targets against the committed results: baseline and current path of one run each."""
+    head = ("| job | baseline (s) | current (s) | ratio | target (s) | met | same answer |\n"
+            "|---|---|---|---|---|---|---|")
+    rows = [head]
+    for name, job in TARGETS.items():
+        path = RESULTS / f"{name}.json"
+        if not path.exists():
+            rows.append(f"| {job} | not measured: `{command(name, ARGUMENTS.get(name, []))}` | | | | | |")
+            continue
+        m = json.loads(path.read_text())["measured"]
+        same = m.get("rankings_agree", m.get("diagnoses_agree"))
+        rows.append(f"| {job} | {m['baseline_seconds']:.1f} | {m['current_seconds']:.1f} | {m['wall_ratio']:.2f} | "
+                    f"{m['target_seconds']:.0f} | {'yes' if m['current_seconds'] <= m['target_seconds'] else 'NO'} | "
+                    f"{'yes' if same else 'no'} |")
+    return "\n".join(rows)
+
+
 def blocks() -> dict[Path, dict[str, str]]:
-    return {README: {name: render(name) for name in NAMES}}
+    return {README: {"targets": targets(), **{name: render(name) for name in NAMES}}}
 
 
 def write_table(name: str) -> Path:
     from bayesbeam.report.markdown import write_blocks
 
-    return write_blocks(README, {name: render(name)})
+    return write_blocks(README, {name: render(name), "targets": targets()})
 
 
 #: what the running benchmark measured, as numbers (:func:`record`), saved beside its printed output
