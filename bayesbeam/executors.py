@@ -4,11 +4,15 @@
 object with ``map(fn, *iterables) -> list`` (results in order) and ``close()``. Jobs must be module-level
 functions of picklable arguments. Local processes are spawned (not forked), so a job sees a fresh
 interpreter and BLAS is limited to one thread per worker (two workers on two cores, not two
-workers each starting two BLAS threads).
+workers each starting two BLAS threads). A local worker exits when the process that started it
+ends, however it ends (killed by a batch scheduler, say): no orphan keeps computing a job
+nobody will collect.
 """
 from __future__ import annotations
 
 import os
+import threading
+import time
 from concurrent.futures import ProcessPoolExecutor
 
 #: address schemes of a Dask scheduler
@@ -40,13 +44,29 @@ class LocalExecutor:
         # loaded its BLAS already, so it is unaffected)
         for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
             os.environ.setdefault(name, "1")
-        self._pool = ProcessPoolExecutor(processes, mp_context=mp.get_context("spawn"))
+        self._pool = ProcessPoolExecutor(processes, mp_context=mp.get_context("spawn"),
+                                         initializer=_exit_with_parent, initargs=(os.getpid(),))
 
     def map(self, fn, *iterables) -> list:
         return list(self._pool.map(fn, *iterables))
 
     def close(self) -> None:
         self._pool.shutdown()
+
+
+#: how often a local worker checks that the process that started it is still there (s)
+PARENT_POLL = 1.0
+
+
+def _exit_with_parent(parent: int) -> None:
+    """Start a watch in this worker: once its parent is gone (the worker is handed to another
+    process), end the worker at once, whatever job it is in."""
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(PARENT_POLL)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True, name="exit-with-parent").start()
 
 
 class DaskExecutor:

@@ -35,6 +35,59 @@ def test_local_processes_keep_the_order():
         executor.close()
 
 
+#: a program that starts a local worker, prints its pid, then keeps it busy with a long job
+_ORPHAN = """
+import os, time
+from bayesbeam.executors import LocalExecutor
+
+def pid(_):
+    return os.getpid()
+
+if __name__ == "__main__":
+    executor = LocalExecutor(1)
+    print(executor.map(pid, [0])[0], flush=True)
+    executor.map(time.sleep, [120])
+"""
+
+
+def test_a_local_worker_ends_with_the_process_that_started_it(tmp_path):
+    """The starting process is killed (SIGKILL: no clean-up runs) while its worker is in a 120 s
+    job: the worker must be gone within 5 s (it checks for its parent every PARENT_POLL = 1 s;
+    the margin covers a loaded machine), not compute on as an orphan."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    script = tmp_path / "orphan.py"
+    script.write_text(_ORPHAN)
+    parent = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True)
+    try:
+        worker = int(parent.stdout.readline())
+        time.sleep(0.5)                                   # the long job is under way
+        os.kill(parent.pid, signal.SIGKILL)
+        parent.wait()
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline and _alive(worker):
+            time.sleep(0.1)
+        alive = _alive(worker)
+    finally:
+        parent.kill()
+    if alive:
+        os.kill(worker, signal.SIGKILL)
+    assert not alive
+
+
+def _alive(pid: int) -> bool:
+    """Whether process pid exists and is not a zombie (an exited child its parent has not reaped)."""
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().split(") ")[-1][0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
 def test_a_comparison_on_a_dask_cluster_equals_the_serial_one(cluster):
     """Every job is seeded from the comparison's seed, not from where it runs: bit-identical."""
     rec, _ = cases.simulated("q1", seed=3, fs=256.0)
