@@ -180,16 +180,21 @@ def _mode_table(summary, measured_key, interval_key, scale, fmt) -> str:
         cells = [str(k), number(None if measured is None else measured * scale, fmt)]
         for m in ranking:
             row = rows_by_model[m].get(k)
-            cells.append(_interval_cell(row, measured_key, interval_key, scale, fmt))
+            cells.append(_interval_cell(row, measured_key, interval_key, scale, fmt, measured))
         rows.append(cells)
     return table(["mode", "measured"] + [esc(m) for m in ranking], rows)
 
 
-def _interval_cell(row, measured_key, interval_key, scale, fmt) -> str:
+def _interval_cell(row, measured_key, interval_key, scale, fmt, shown) -> str:
+    """A model's 90 % interval, flagged when its measurement misses it. The check takes the ERA
+    pole nearest the model's mode: where ERA finds two near one mode and this model's is not the
+    one in the measured column (``shown``), the cell names it."""
     if row is None or row[interval_key] is None:
         return "n/a"
     lo, hi = (v * scale for v in row[interval_key])
     text = f"{lo:{fmt}}&ndash;{hi:{fmt}}"
+    if row[measured_key] is not None and shown is not None and row[measured_key] != shown:
+        text += f"<br><small>against {row[measured_key] * scale:{fmt}}</small>"
     return flag(text, _outside(row[measured_key], row[interval_key]))
 
 

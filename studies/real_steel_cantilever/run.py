@@ -60,7 +60,10 @@ CHECKS = {"residual_spectrum": "residual spectrum", "ljung_box": "Ljung-Box",
 
 def mode_table(summary: dict, measured_key: str, interval_key: str, scale: float, fmt: str) -> str:
     """Rows: the measurement (ERA), then each model in ranking order; columns: modes. A model's
-    cell is its posterior predictive 90 % interval, marked *outside* when the measurement misses it."""
+    cell is its posterior predictive 90 % interval, marked *outside* when the measurement misses it.
+
+    The check takes the ERA pole nearest the model's own mode, so where ERA finds two poles near
+    one mode a model can be checked against the other one: its cell then names that measurement."""
     from bayesbeam.report.markdown import markdown_table
 
     models = summary["models"]
@@ -69,13 +72,15 @@ def mode_table(summary: dict, measured_key: str, interval_key: str, scale: float
     rows = [["measured (ERA)", *(f"{row[measured_key] * scale:{fmt}}" for row in first)]]
     for name in summary["ranking"]:
         cells = []
-        for row in models[name]["modes"]:
+        for row, shown in zip(models[name]["modes"], first):
             if row[interval_key] is None:  # no replicate gave the mode (ERA found none there)
                 cells.append("n/a")
                 continue
             lo, hi = (v * scale for v in row[interval_key])
-            inside = lo <= row[measured_key] * scale <= hi
-            cells.append(f"{lo:{fmt}}-{hi:{fmt}}" + ("" if inside else " *outside*"))
+            measured = row[measured_key] * scale
+            inside = lo <= measured <= hi
+            own = "" if row[measured_key] == shown[measured_key] else f" (against the ERA pole at {measured:{fmt}})"
+            cells.append(f"{lo:{fmt}}-{hi:{fmt}}" + ("" if inside else " *outside*") + own)
         rows.append([name, *cells])
     return markdown_table(head, rows)
 

@@ -131,3 +131,22 @@ def test_a_model_is_described_by_its_mechanisms_and_effects():
     assert described({"mechanisms": ["air"], "effects": ["sensor_mass"]}) == "air with sensor_mass"
     assert described({"mechanisms": [], "effects": ["root_compliance", "root_damping"]}) == \
         "root_compliance, root_damping"
+
+
+def test_a_model_checked_against_another_era_pole_says_which():
+    """Two models, one mode; ERA found two poles near it and each model's check took the one
+    nearest its own mode (damping 0.15 % and 0.59 %). The measured column shows the first
+    model's; the second model's cell names the measurement it was checked against, so a flag
+    (0.59 % outside 0.14-0.16 %) is not read against the 0.15 % shown. The first model's cell
+    names nothing."""
+    from bayesbeam.report.comparison import _mode_table
+
+    def row(measured, interval):
+        return {"mode": 1, "measured_damping_ratio": measured, "predicted_damping_ratio_90": interval}
+    summary = {"ranking": ["a", "b"], "models": {"a": {"modes": [row(0.00146, [0.0014, 0.0016])]},
+                                                 "b": {"modes": [row(0.00585, [0.0014, 0.0016])]}}}
+    cells = re.findall(r"<td[^>]*>(.*?)</td>", _mode_table(summary, "measured_damping_ratio",
+                                                          "predicted_damping_ratio_90", 100.0, ".3g"))
+    assert cells[1] == "0.146"
+    assert "against" not in cells[2]
+    assert "against 0.585" in cells[3]
