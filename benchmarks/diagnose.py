@@ -74,9 +74,8 @@ def recording(args):
     return load_recording(path), args.model or truth["damping_model"], TARGET_SECONDS["concealed"]
 
 
-def result_name(argv) -> str:
-    """The result's name: ``diagnose``, or ``diagnose_NAME`` for a concealed-effects recording."""
-    concealed = parser().parse_known_args(argv)[0].concealed
+def result_name(concealed: str | None) -> str:
+    """The result's name: ``diagnose``, or ``diagnose_NAME`` for the concealed-effects recording NAME."""
     return f"diagnose_{concealed}" if concealed else "diagnose"
 
 
@@ -106,4 +105,4 @@ def main(argv=None) -> int:
 
 if __name__ == "__main__":
     # each concealed-effects recording is kept apart from the example, with a block of its own in README.md
-    sys.exit(tables.run(result_name(sys.argv[1:]), main))
+    sys.exit(tables.run(result_name(parser().parse_known_args()[0].concealed), main))

@@ -45,7 +45,7 @@ def job(benchmark: str, args, path: str):
         name = "compare" if args.max_frequency else "compare_full"
         return (lambda: compare(rec, DEFAULT_MODELS, config, SerialExecutor())), name
     rec, model, _ = diagnose_benchmark.recording(args)
-    name = diagnose_benchmark.result_name(["--concealed", args.concealed] if args.concealed else [])
+    name = diagnose_benchmark.result_name(args.concealed)
     return (lambda: diagnose(rec, model, config, SerialExecutor())), name
 
 

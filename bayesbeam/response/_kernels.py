@@ -261,14 +261,14 @@ def drag_block(z0, u, cubic, quad, E, vlin, to_velocity, rows_t, rows_w, to_moda
     states = np.empty((S, m), dtype=np.complex128)
     u[2:] = 0.0
     v = drag_velocities(z0, u, cubic, quad, E, vlin, to_velocity, rows_t, states)
-    g = -c_q * np.abs(v) * v - c_v * v
+    g = drag_law(v, c_q, c_v)
     g_new = g
     u_real = u.view(np.float64)
     prev = np.inf
     for sweep in range(1, sweeps + 1):
         u_real[2:] = np.dot(np.dot(g, rows_w), to_modal)
         v = drag_velocities(z0, u, cubic, quad, E, vlin, to_velocity, rows_t, states)
-        g_new = -c_q * np.abs(v) * v - c_v * v
+        g_new = drag_law(v, c_q, c_v)
         delta, size = change_and_size(g_new, g)
         if delta <= rtol * size or delta == 0.0:
             return True, sweep, g, states, v, g_new
@@ -276,6 +276,12 @@ def drag_block(z0, u, cubic, quad, E, vlin, to_velocity, rows_t, rows_w, to_moda
             return False, sweep, g, states, v, g_new
         prev, g = delta, g_new
     return False, sweeps, g, states, v, g_new
+
+
+@numba.njit(cache=True)
+def drag_law(v, c_q, c_v):
+    """The drag per unit length (N/m) at the velocities v (m/s): -c_q |v| v - c_v v."""
+    return -c_q * np.abs(v) * v - c_v * v
 
 
 @numba.njit(cache=True)

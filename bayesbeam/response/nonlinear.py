@@ -817,8 +817,8 @@ class _Drag:
         self.vlin = p.fine(p.linear_spectrum(np.eye(n), order=1)) if p.forced else np.zeros((0, n))
 
     def law(self, v: np.ndarray) -> np.ndarray:
-        """The drag per unit length (N/m) at the velocities v (m/s)."""
-        return -self.c_q * np.abs(v) * v - self.c_v * v
+        """The drag per unit length (N/m) at the velocities v (m/s) (:func:`_kernels.drag_law`)."""
+        return _kernels.drag_law(v, self.c_q, self.c_v)
 
     def _states(self, z0: np.ndarray, u: np.ndarray, k: int):
         """States at nodes k+1 .. k+S (S, m) from ``z0`` at node k, and their Gauss-point velocities.
