@@ -28,7 +28,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from bayesbeam.checks.ppc import N_REPLICATES, mode_table, posterior_predictive_check
+from bayesbeam.checks.ppc import N_REPLICATES, PASS_P_VALUE, mode_table, posterior_predictive_check
 from bayesbeam.executors import SerialExecutor
 from bayesbeam.inference.evidence import combine_runs, laplace_reference, matched_reference, smc
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
@@ -406,15 +406,15 @@ def verdict(ranking, models) -> str:
         text.append(f"Not settled: {'; '.join(unsettled)}. The SMC runs of such a model disagree, so "
                     "its evidence and its place in the ranking are not established (a run that misses "
                     "the posterior's mode errs low); rerun it with more --particles or --repeats.")
-    failed = [k for k, v in b["ppc"].items() if v["p_value"] is not None and v["p_value"] < 0.01]
+    failed = [k for k, v in b["ppc"].items() if v["p_value"] is not None and v["p_value"] < PASS_P_VALUE]
     if failed:
         text.append(f"But the best model does not reproduce everything in the recording: posterior "
-                    f"predictive p < 0.01 for {', '.join(failed)}. Something the models leave out "
+                    f"predictive p < {PASS_P_VALUE:g} for {', '.join(failed)}. Something the models leave out "
                     f"remains (see the per-mode table and residual spectrum), and a damping model "
                     f"can win by imitating part of it: the ranking is not a verdict on the mechanism "
                     f"until that is found. `bayesbeam diagnose` locates it, names the missing physics "
                     f"from its catalogue and compares the damping models again with it.")
     else:
-        text.append("Its posterior predictive checks pass (every p-value >= 0.01): the recording looks "
+        text.append(f"Its posterior predictive checks pass (every p-value >= {PASS_P_VALUE:g}): the recording looks "
                     "like the model's own replicates.")
     return " ".join(text)

@@ -4,6 +4,7 @@ The statistical claims (the true model ranks first, its parameters inside their 
 summary's layout are tested on recordings compare() did not make: tests/acceptance/test_compare.py.
 """
 import numpy as np
+import pytest
 
 from bayesbeam.compare import (
     DEFAULT_MODELS,
@@ -13,8 +14,20 @@ from bayesbeam.compare import (
 )
 
 
-def test_kass_raftery_words():
-    assert strength(6.0) == "very strong" and strength(0.2).startswith("not worth")
+#: Kass & Raftery (1995), Table in section 3.2, on their 2 ln B scale: 0-2 not worth more than a bare
+#: mention, 2-6 positive, 6-10 strong, > 10 very strong (written here from the paper, not the package)
+KASS_RAFTERY_2LNB = ((2.0, "positive"), (6.0, "strong"), (10.0, "very strong"))
+
+
+@pytest.mark.parametrize(("two_ln_b", "word"), KASS_RAFTERY_2LNB)
+def test_kass_raftery_words_change_at_each_boundary(two_ln_b, word):
+    """ln B = (2 ln B) / 2; a band starts at its boundary and a hair below it is the band beneath,
+    so swapping any two thresholds, or a threshold 10 % off, fails."""
+    below = {2.0: "not worth more than a bare mention", 6.0: "positive", 10.0: "strong"}[two_ln_b]
+    assert strength(two_ln_b / 2) == word
+    assert strength(two_ln_b / 2 * 1.05) == word
+    assert strength(two_ln_b / 2 * 0.95) == below
+    assert strength(0.0) == strength(-3.0) == "not worth more than a bare mention"
 
 
 def test_a_verdict_whose_best_model_fails_its_checks_points_to_the_diagnosis():

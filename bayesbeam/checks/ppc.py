@@ -33,6 +33,10 @@ from bayesbeam.response.signals import impact_window
 
 #: replicated recordings per model
 N_REPLICATES = 100
+#: a statistic whose predictive p-value falls below this fails its check (a model passes when every
+#: p-value is at least this); with ~6 statistics per model the chance that the true model fails one
+#: by chance stays near 6 %
+PASS_P_VALUE = 0.01
 #: Ljung-Box lags
 LJUNG_BOX_LAGS = 20
 #: frequency bands of the residual-spectrum statistic

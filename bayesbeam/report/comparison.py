@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, SPECTRUM_BANDS
+from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, PASS_P_VALUE, SPECTRUM_BANDS
 from bayesbeam.compare import described, strength
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
@@ -37,8 +37,6 @@ from bayesbeam.report.plots import (
 SECTIONS = (("verdict", "Verdict"), ("modes", "Damping per mode"), ("fits", "Time histories"),
             ("spectra", "Residual spectra"), ("checks", "Posterior predictive checks"),
             ("posteriors", "Posteriors"), ("convergence", "Convergence"))
-#: posterior predictive p-values below this are highlighted
-P_FLAG = 0.01
 #: R-hat across SMC repeats above this is flagged (Vehtari et al. 2021)
 RHAT_FLAG = 1.01
 #: the time-history zoom: at most this long (a quarter second shows the impact and the first
@@ -308,11 +306,11 @@ def _checks_section(results, summary) -> str:
         cells = [esc(name)]
         for m in ranking:
             p = models[m]["ppc"].get(name, {}).get("p_value")
-            cells.append("n/a" if p is None else flag(f"{p:.2g}", p < P_FLAG))
+            cells.append("n/a" if p is None else flag(f"{p:.2g}", p < PASS_P_VALUE))
         rows.append(cells)
     return (h2("checks", SECTIONS)
             + f"<p>Posterior predictive p-values: how often the model's {replicates} replicated recordings are "
-              f"at least as extreme as the measured one (so p is resolved to 1/{replicates}). p &lt; {P_FLAG} "
+              f"at least as extreme as the measured one (so p is resolved to 1/{replicates}). p &lt; {PASS_P_VALUE} "
               f"(highlighted) says the recording is unlike the model's own replicates. residual_spectrum: "
               f"largest residual power over the noise variance in {SPECTRUM_BANDS} frequency bands; "
               f"ljung_box: residual autocorrelation (Ljung-Box Q, {LJUNG_BOX_LAGS} lags); zeta_mode&lt;m&gt;, "
