@@ -52,8 +52,9 @@ if __name__ == "__main__":
 
 def test_a_local_worker_ends_with_the_process_that_started_it(tmp_path):
     """The starting process is killed (SIGKILL: no clean-up runs) while its worker is in a 120 s
-    job: the worker must be gone within 5 s (it checks for its parent every PARENT_POLL = 1 s;
-    the margin covers a loaded machine), not compute on as an orphan."""
+    job: the worker must be gone well before its 120 s job would end (it checks for its parent every
+    PARENT_POLL = 1 s), not compute on as an orphan. The wait is a liveness bound, not a timing
+    claim: 60 s leaves any loaded machine room and still ends an hour before an orphan would."""
     import os
     import signal
     import subprocess
@@ -68,7 +69,7 @@ def test_a_local_worker_ends_with_the_process_that_started_it(tmp_path):
         time.sleep(0.5)                                   # the long job is under way
         os.kill(parent.pid, signal.SIGKILL)
         parent.wait()
-        deadline = time.monotonic() + 5.0
+        deadline = time.monotonic() + 60.0
         while time.monotonic() < deadline and _alive(worker):
             time.sleep(0.1)
         alive = _alive(worker)

@@ -1,4 +1,4 @@
-"""The acceptance recordings: each builds fast, loads, and means what its truth.json says.
+"""The acceptance recordings: each builds, loads, and means what its truth.json says.
 
 The last point is checked against bayesbeam's model at the true parameters (N = 48, a SANITY
 check of shared conventions: parameter names, units, the effects' definitions, the delay's sign),
@@ -10,7 +10,6 @@ noise sd when it windows the force, 4-7 times when it does not: the input noise'
 from __future__ import annotations
 
 import json
-import time
 
 import numpy as np
 import pytest
@@ -23,8 +22,8 @@ EFFECT_NAMES = {"k_theta": "root_compliance", "tau": "measurement_delay", "m_s":
 
 
 @pytest.mark.parametrize("name", list(RECORDINGS))
-def test_recording_builds_fast_and_means_what_its_truth_says(name, reference_recordings):
-    """Built within 6 s (measured 0.5-0.9 s alone; the bound leaves room for a loaded machine); truth.json states the parameters and effects of RECORDINGS[name]; the
+def test_recording_means_what_its_truth_says(name, reference_recordings):
+    """truth.json states the parameters and effects of RECORDINGS[name]; the
     nominal modulus is 6-7 % off the truth; the noise added has the stated sds (1024 samples: an
     sd's sampling error is 2.2 %, so 8 % is over 3.5 of them); and bayesbeam's model at the truth,
     driven by the clean force, reproduces the clean signals within 1e-3 of their RMS (measured
@@ -33,9 +32,7 @@ def test_recording_builds_fast_and_means_what_its_truth_says(name, reference_rec
     differently (measured 2.1e-3): 5e-3 there."""
     from bayesbeam.model import BeamModel
 
-    start = time.perf_counter()
     folder = reference_recordings(name)
-    assert time.perf_counter() - start < 6.0
     rec = load_recording(folder)
     truth = json.loads((folder / "truth.json").read_text())
     spec = RECORDINGS[name]
