@@ -18,6 +18,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from bayesbeam.cli.common import EXIT_NOT_CONVERGED
 from bayesbeam.io import write_recording
 from tests.inference import cases
 
@@ -25,10 +26,10 @@ DATA = Path(__file__).resolve().parents[1] / "data"
 HAMMER = str(DATA / "examples" / "paper_q3_hammer")
 FIT = ["--model", "air", "--stop", "0.5", "--max-frequency", "60", "--n-intervals", "8", "--walkers", "8",
        "--seed", "3", "--executor", "serial", "--quiet"]
-#: tau_factor 10 instead of 50 lets this short chain converge (at 1750 steps with seed 3), so that the
-#: resumed run must reproduce the uninterrupted run's stopping decision as well as its draws
+#: tau_factor 10 instead of 50 lets this short chain reach the convergence rule within the cap, so that
+#: the resumed run must reproduce the uninterrupted run's stopping decision as well as its draws
 FIT_FILE = "[fit]\ntau_factor = 10\n"
-CAP = 3000  # --max-steps: far above where the chain converges, so convergence ends both runs
+CAP = 3000  # --max-steps: the chain is 10 tau long from ~500 steps on; the tau-stability rule decides
 KILL_AFTER = 100  # steps saved before the first run is killed: well before convergence
 
 
@@ -81,7 +82,10 @@ def test_fit_resumes_the_killed_chain_bit_for_bit(tmp_path):
     """Killed after m >= 100 saved steps and resumed, the run keeps those m steps unchanged and ends
     where, and as, an uninterrupted run with the same seed ends: the same n steps, every draw and
     log probability identical (emcee's HDF5 backend holds the random state of the last saved step,
-    and convergence is judged at the same chunk boundaries), exit status 0 (converged)."""
+    and convergence is judged at the same chunk boundaries), and the same exit status. Whether
+    that status is 0 (converged) or 3 (the --max-steps cap) depends on the numerical libraries'
+    rounding (the tau estimate of this short chain wanders by ~5 % between chunks near the
+    stability rule); either way the resumed run must take the uninterrupted run's decision."""
     config = tmp_path / "fit.toml"
     config.write_text(FIT_FILE)
     out = tmp_path / "resumed"
@@ -90,14 +94,14 @@ def test_fit_resumes_the_killed_chain_bit_for_bit(tmp_path):
     _kill_when(_fit(out, config), lambda: _saved_steps(backend) >= KILL_AFTER)
     saved, saved_lp = _chain(backend)
     m = len(saved)
-    code, text = _finish(whole_run)
-    assert code == 0, text
+    whole_code, text = _finish(whole_run)
+    assert whole_code in (0, EXIT_NOT_CONVERGED), text
     whole, whole_lp = _chain(tmp_path / "whole" / "chains.h5")
     n = len(whole)
     assert KILL_AFTER <= m < n
 
     code, text = _finish(_fit(out, config, "--resume"))
-    assert code == 0, text
+    assert code == whole_code, text
     chain, lp = _chain(backend)
     np.testing.assert_array_equal(chain[:m], saved)
     np.testing.assert_array_equal(lp[:m], saved_lp)
