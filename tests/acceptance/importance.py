@@ -1,13 +1,13 @@
 """Adaptive importance sampling of a posterior, certified by the Pareto k of its weights.
 
 Stages of multivariate-t proposals: the first around a given mean and covariance (a Laplace
-approximation), each later one with the weighted mean and covariance of all draws so far. Every
-draw is weighted by density / mixture of all stages' proposals (the balance heuristic: unbiased
-for any mixture that covers the target) and the weights are Pareto-smoothed (arviz.psislw, as
-bayesbeam's PSIS-LOO smooths them). The Pareto k of the final weights estimates the tail of their
-distribution: below 0.7 the smoothed
-estimates are reliable, above it they are not (Vehtari et al. 2024, "Pareto smoothed importance
-sampling", JMLR 25).
+approximation), each later one with the weighted mean and covariance of all draws so far; after
+the planned stages, further ones (up to a cap) while the Pareto k is 0.7 or more, for a start far
+from the target's shape. Every draw is weighted by density / mixture of all stages' proposals
+(the balance heuristic: unbiased for any mixture that covers the target) and the weights are
+Pareto-smoothed (arviz.psislw, as bayesbeam's PSIS-LOO smooths them). The Pareto k of the final
+weights estimates the tail of their distribution: below 0.7 the smoothed estimates are reliable,
+above it they are not (Vehtari et al. 2024, "Pareto smoothed importance sampling", JMLR 25).
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from bayesbeam.inference.screens import _psis_log_weights
+from bayesbeam.inference.screens import PARETO_K_LIMIT, _psis_log_weights
 
 
 @dataclass
@@ -57,28 +57,35 @@ def smoothed(log_ratio: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def adaptive_importance(log_density, mean: np.ndarray, covariance: np.ndarray, stages, rng, *,
-                        df: float = 5.0, first_widen: float = 2.0, widen: float = 1.3) -> Weighted:
-    """Weighted draws of ``log_density`` (a function of one point) in ``stages`` (draws per stage).
+                        df: float = 5.0, first_widen: float = 2.0, widen: float = 1.3, more: int = 0,
+                        more_size: int = 250, k_limit: float = PARETO_K_LIMIT) -> Weighted:
+    """Weighted draws of ``log_density`` (a function of one point) in ``stages`` (draws per stage),
+    then at most ``more`` further stages of ``more_size`` draws while the Pareto k of all draws'
+    weights is ``k_limit`` or more.
 
     The first proposal is the t (``df`` degrees of freedom) of ``mean`` and ``covariance`` with
     scale ``first_widen`` x its sd; each later one the t of the weighted draws so far, ``widen``
     x their sd (heavier-tailed and wider than the target: importance sampling fails when the
     proposal's tails are the lighter). A stage whose weights hold fewer effective draws than
-    4 x the dimension keeps its proposal (too few to estimate a covariance).
+    4 x the dimension keeps its proposal (too few to estimate a covariance). The further stages
+    are for a start far from the target: each moves the proposal toward the mass found so far,
+    and the weights of all draws are judged again.
     """
     # proposals live in coordinates scaled by the first sd: a covariance whose variances span ten
     # decades (EI's and a damping's logarithms) is otherwise judged singular by scipy's t
     scale = np.sqrt(np.diag(covariance))
     proposal = stats.multivariate_t(mean / scale, first_widen**2 * covariance / np.outer(scale, scale), df=df,
                                     seed=rng)
-    proposals, z, log_p, stage_k = [], np.empty((0, mean.size)), np.empty(0), []
-    for size in stages:
+    proposals, sizes, z, log_p, stage_k = [], [], np.empty((0, mean.size)), np.empty(0), []
+    for size in [*stages, *[more_size] * more]:
+        if len(stage_k) >= len(stages) and stage_k[-1] < k_limit:
+            break
         proposals.append(proposal)
+        sizes.append(size)
         new = np.atleast_2d(proposal.rvs(size))
         z = np.concatenate([z, new])
         log_p = np.concatenate([log_p, [log_density(zi * scale) for zi in new]])
-        shares = np.array(stages[: len(proposals)]) / len(z)
-        mixture = np.logaddexp.reduce([np.log(f) + q.logpdf(z) for f, q in zip(shares, proposals)], axis=0)
+        mixture = np.logaddexp.reduce([np.log(n / len(z)) + q.logpdf(z) for n, q in zip(sizes, proposals)], axis=0)
         w, k = smoothed(log_p - mixture)
         stage_k.append(k)
         if 1.0 / np.sum(w**2) > 4 * mean.size:

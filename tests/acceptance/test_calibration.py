@@ -30,27 +30,51 @@ Where a posterior reaches so far into its prior, a correct posterior's intervals
 fixed truth at their nominal rate (the PIT is uniform only averaged over the prior), so such a
 test could not tell a wrong likelihood from a right one. Recorded for 2 s at 1024 Hz the same
 profiles fall 27 nats (log gamma 1 below, seed 1004) and 580 nats (log b 0.5 below): the
-likelihood dominates, and the importance-sampled sd is 0.4-1.6 x the Laplace sd at the truth.
+likelihood dominates, and the importance-sampled sd is 0.2-1.7 x the Laplace sd at the truth
+(a Laplace sd that is itself unreliable along the damping ridge: below).
 
 The posterior of each draw. emcee per draw does not fit the suite's budget (q3: tau ~ 50-100
 steps x 20 walkers x 20 draws), so the posterior is computed by adaptive importance sampling
-(importance.py), exact up to Monte Carlo error: three stages of multivariate t proposals (5
-degrees of freedom), the first the Laplace approximation at the truth moved by one Newton step,
-2 x its sd wide, each later one the weighted moments of all draws so far, 1.3 x wide; every draw
-weighted by posterior / mixture of the stages, Pareto-smoothed. Where the proposal starts
-changes only the efficiency, not the target; the Pareto k of every draw's weights must stay
-below 0.7, where smoothed importance sampling is reliable (Vehtari et al. 2024); on the 2 s
-record it stays below 0.6, so q3 needs no proposal shaped to a curved ridge. Intervals: weighted
-5 % and 95 % quantiles in the sampling coordinate; the probability integral transform
-u = weighted P(parameter < truth).
+(importance.py), exact up to Monte Carlo error: three planned stages of multivariate t proposals
+(5 degrees of freedom, 250, 250 and 500 draws), the first the Laplace approximation at the truth
+moved by one Newton step (kept at the truth when the step lowers the log posterior), 2 x its sd
+wide, each later one the weighted moments of all draws so far, 1.3 x wide; every draw weighted
+by posterior / mixture of the stages, Pareto-smoothed. While the Pareto k of all draws' weights
+is 0.7 or more, further stages of 250 draws follow, each again from the weighted moments of all
+draws so far, at most eight. A noise draw is certified when its k is below 0.7, where smoothed
+importance sampling is reliable (Vehtari et al. 2024); the coverage and PIT tests count only
+certified draws (an uncertified one fails them), and the reliability test lists which draws the
+planned stages certified and which the further ones did. Where the proposal starts changes only
+the efficiency, not the target. Intervals: weighted 5 % and 95 % quantiles in the sampling
+coordinate; the probability integral transform u = weighted P(parameter < truth).
+
+Why a start can fail: the Laplace covariance at the truth (sampler.laplace_covariance: finite
+differences with steps of 1e-4 in every sampling coordinate) is unreliable along q3's damping
+ridge. The log posterior (about -1600 nats) carries a rounding error of ~1e-6 nats at each
+point, ~50-100 in each Hessian entry after the division by 4 step^2, while the curvature of the
+(gamma, a, b) ridge is ~200. On seed 1016 one rounding error at the truth itself, shared by the
+three diagonal entries, lowers each by ~200: the ridge's curvature comes out 6 instead of 194
+(steps of 0.1 posterior sd give 194-205), so the start's sd is about 5 x the posterior's in
+gamma and in b, with their correlation -0.996 instead of -0.88. The Newton step with that
+covariance moves gamma by 15 posterior sd and lowers the log posterior by 200 nats, so the
+proposal starts at the truth, about 10 x the posterior's width along the ridge; the planned
+stages' weights hold 2-10 effective draws (k 3.06, 2.96, 2.25), too few (more than 4 x 5 are
+needed) to move the proposal. The posterior itself is neither bimodal nor heavy-tailed: started
+from the optimum (a polish from the truth, about 1 sd away in gamma and 2 in sigma_accel_tip)
+and its Laplace covariance, the planned stages give k -0.19 and 470 effective draws of 1000;
+its sd lies within 3 % of the Laplace sd of a Hessian with steps of 0.1 sd there and its mean
+within 0.4 sd of the optimum: a nearly Gaussian ridge. With the further stages the accumulated
+effective draws exceed 20 after the seventh stage, the proposal moves onto the ridge, and k falls
+to 0.15 at the eighth (2250 draws); the other 19 draws have k -0.45..0.24 after the planned
+stages.
 
 Acceptance band, per parameter (as tests/inference/test_calibration.py). Coverage count
 ~ Binomial(20, 0.9) under calibration: P(X <= 13) = 0.0024, so 14 <= X (70-100 %) has a false
 alarm of 0.0024 per parameter. Over-coverage is tested by the PIT: u ~ Uniform(0, 1) under
 calibration, and the Kolmogorov-Smirnov test of the 20 u's must not reject at level 0.001. Nine
 parameters (four of q1, five of q3), two tests each: family-wise false alarm at most
-9 x (0.0024 + 0.001) = 3.1 %. Importance-sampling error in u (sd <= 1/(2 sqrt(ESS)) <= 0.03 at
-the ESS seen) makes the band slightly conservative, not liberal.
+9 x (0.0024 + 0.001) = 3.1 %. Importance-sampling error in u (sd <= 1/(2 sqrt(ESS)) <= 0.05 at
+the ESS seen, 108 or more) makes the band slightly conservative, not liberal.
 
 What the band lets through: q3's gamma leans low on these seeds. Its u averages 0.61 over seeds
 1000-1059 (3 sd above 0.5 for a mean of 60 uniforms; KS p 0.02-0.04 on twenty or forty of them),
@@ -90,6 +114,8 @@ SEEDS = range(1000, 1000 + R)
 CASES = {"q3": ("q3", "paper_long", 5, 16), "q1": ("q1", "paper", 3, 48)}
 #: draws of each importance-sampling stage
 STAGES = (250, 250, 500)
+#: at most this many further stages of 250 draws while a draw's Pareto k is 0.7 or more
+MORE_STAGES = 8
 LOWEST_COUNT = 14
 
 
@@ -112,6 +138,25 @@ def test_adaptive_importance_recovers_a_known_banana():
     bend = 0.4
     result = adaptive_importance(lambda x: _banana(x, bend), np.full(4, 0.5), 0.3 * np.eye(4), STAGES,
                                  np.random.default_rng(0))
+    assert result.pareto_k < MAX_PARETO_K
+    assert result.below(0, 1.0) == pytest.approx(stats.norm.cdf(1.0), abs=4 * 0.5 / np.sqrt(result.ess))
+    sd_x2 = np.sqrt(1 + 2 * bend**2)
+    assert result.weights @ result.draws[:, 1] == pytest.approx(0.0, abs=4 * sd_x2 / np.sqrt(result.ess))
+
+
+def test_further_stages_certify_a_start_too_wide_along_a_ridge():
+    """A start like q3's Laplace approximation where it fails (module docstring): centred on the
+    target but 50 x its variance along a direction of correlation 0.996 between x1 and x2. The
+    planned stages leave k > 0.7 (with this start and seed their weights hold 7-16 effective
+    draws, too few to move the proposal); the further stages bring k below 0.7 and recover the
+    marginals of the banana test, to the same 4 Monte Carlo sd."""
+    bend = 0.4
+    start = np.eye(4)
+    start[:2, :2] = 50.0 * np.array([[1.0, 0.996], [0.996, 1.0]])
+    planned = adaptive_importance(lambda x: _banana(x, bend), np.zeros(4), start, STAGES, np.random.default_rng(0))
+    result = adaptive_importance(lambda x: _banana(x, bend), np.zeros(4), start, STAGES, np.random.default_rng(0),
+                                 more=MORE_STAGES)
+    assert planned.pareto_k > MAX_PARETO_K
     assert result.pareto_k < MAX_PARETO_K
     assert result.below(0, 1.0) == pytest.approx(stats.norm.cdf(1.0), abs=4 * 0.5 / np.sqrt(result.ess))
     sd_x2 = np.sqrt(1 + 2 * bend**2)
@@ -155,9 +200,10 @@ def importance_posterior(case: str, seed: int) -> dict:
     centre = truth_z + newton_shift(post, truth_z, covariance)
     if not post(centre) > post(truth_z):
         centre = truth_z
-    result = adaptive_importance(post, centre, covariance, STAGES, np.random.default_rng(seed))
+    result = adaptive_importance(post, centre, covariance, STAGES, np.random.default_rng(seed), more=MORE_STAGES)
     return {
-        "names": post.names, "pareto_k": result.pareto_k, "ess": result.ess,
+        "seed": seed, "names": post.names, "pareto_k": result.pareto_k, "stage_k": result.stage_k,
+        "ess": result.ess, "n_draws": len(result.draws),
         "interval": {n: result.quantile(i, [0.05, 0.95]).tolist() for i, n in enumerate(post.names)},
         "truth_z": dict(zip(post.names, truth_z.tolist())),
         "pit": {n: result.below(i, truth_z[i]) for i, n in enumerate(post.names)},
@@ -200,7 +246,7 @@ def _report(case: str, reps: list) -> tuple[str, dict, dict]:
     lines = [(f"{case}: {R} draws, {np.mean([r['seconds'] for r in reps]):.1f} s each (one worker; "
               f"{np.mean([r['cpu_seconds'] for r in reps]):.1f} s of CPU), Pareto k "
               f"{min(r['pareto_k'] for r in reps):.2f}..{max(r['pareto_k'] for r in reps):.2f}, "
-              f"ESS >= {min(r['ess'] for r in reps):.0f} of {sum(STAGES)}")]
+              f"ESS >= {min(r['ess'] for r in reps):.0f}")]
     for n in names:
         ratio = np.percentile([r["sd_over_laplace"][n] for r in reps], [0, 50, 100])
         lines.append(f"  {n:16s} coverage {inside[n]}/{R}   PIT KS p = {ks[n]:.3f}   sd / Laplace sd at the truth "
@@ -218,15 +264,34 @@ def test_discretisation_passes_the_fits_refinement_check(replications, case):
     assert max(shift.values()) < SHIFT_TOLERANCE, shift
 
 
+def _certification(case: str, reps: list) -> tuple[str, list]:
+    """(which stage certified each draw, the seeds of the draws no stage certified)."""
+    def line(r):
+        return f"{r['seed']}: {len(r['stage_k'])} stages, {r['n_draws']} draws, k {r['pareto_k']:.2f}"
+
+    planned = [r["seed"] for r in reps if len(r["stage_k"]) == len(STAGES) and r["pareto_k"] < MAX_PARETO_K]
+    further = [line(r) for r in reps if len(r["stage_k"]) > len(STAGES) and r["pareto_k"] < MAX_PARETO_K]
+    uncertified = [r["seed"] for r in reps if not r["pareto_k"] < MAX_PARETO_K]
+    text = (f"{case}: certified by Pareto k < {MAX_PARETO_K} after the {len(STAGES)} planned stages: "
+            f"{len(planned)} draws; after further stages: {further or 'none'}; not certified: "
+            f"{[line(r) for r in reps if r['seed'] in uncertified] or 'none'}")
+    return text, uncertified
+
+
 @pytest.mark.parametrize("case", CASES)
 def test_importance_sampling_is_reliable(replications, case):
+    """Every draw's weights have Pareto k < 0.7 (after the planned or the further stages)."""
     reps = replications[case]["draws"]
-    report, _, _ = _report(case, reps)
-    assert all(r["pareto_k"] < MAX_PARETO_K for r in reps), report
+    certified, uncertified = _certification(case, reps)
+    print(certified)
+    assert not uncertified, certified + "\n" + _report(case, reps)[0]
 
 
 @pytest.mark.parametrize("case", CASES)
 def test_90_percent_intervals_cover_the_truth_at_the_nominal_rate(replications, case):
+    """Counts only certified draws: one whose weights are not certified fails the test."""
+    certified, uncertified = _certification(case, replications[case]["draws"])
+    assert not uncertified, certified
     report, inside, ks = _report(case, replications[case]["draws"])
     print(report)
     for n in inside:
