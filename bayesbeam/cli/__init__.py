@@ -46,7 +46,7 @@ COMMANDS = {
     "batch": "batch",
     "ema": "ema",
     "era": "era",
-    "import-uff": "import_uff",
+    "import": "import_",
     "models": "models",
 }
 

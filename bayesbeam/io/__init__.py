@@ -10,6 +10,7 @@ from .recording import (
     load_recording,
     write_recording,
 )
+from .text import read_text_export
 from .uff import load_beam_description, read_uff58, write_uff58, write_uff_modes
 
 __all__ = [
@@ -21,6 +22,7 @@ __all__ = [
     "TipBody",
     "load_beam_description",
     "load_recording",
+    "read_text_export",
     "read_uff58",
     "write_recording",
     "write_uff58",

@@ -28,6 +28,20 @@ from pathlib import Path
 import numpy as np
 
 from .errors import RecordingError
+from .text import (
+    COMMENT_PREFIXES,
+    MAX_MAGNITUDE,
+    STATED_DELIMITERS,
+    CellTable,
+    check_header,
+    find_column,
+    print_resolution,
+    read_export_cells,
+    split_unit,
+    time_column,
+    time_factor,
+)
+from .units import SI_UNITS, Unit, known_units, parse_unit
 
 KINDS = ("force", "release", "free_decay")
 QUANTITIES = ("acceleration", "velocity", "displacement")
@@ -42,10 +56,6 @@ exponential-window simulation amplifies its rounding errors beyond use."""
 #: than 1 GHz, and a step of days is not a vibration record (the model's frequency grid would
 #: otherwise overflow)
 STEP_RANGE = (1e-9, 1e5)
-MAX_MAGNITUDE = 1e100
-"""Largest accepted magnitude of any number, in SI units: far beyond any quantity a test
-measures or describes, and small enough that sums of squares over any record, and the
-model's products of such values, stay finite (1e308 would overflow when squared)."""
 DEFAULT_CSV = "recording.csv"
 DEFAULT_TIME_COLUMN = "time"
 
@@ -55,6 +65,11 @@ _BEAM_KEYS = ("length", "density", "area", "second_moment", "modulus")
 _TIP_KEYS = ("mass", "rotary_inertia")
 _SENSOR_KEYS = ("name", "location", "quantity", "column")
 _RECORDING_KEYS = ("file", "time_column")
+#: [recording] keys for a DAQ's own text export (docs/format.md); any of them sends the file
+#: through the text-export reader
+_EXPORT_KEYS = ("delimiter", "decimal", "sample_rate", "skip_lines")
+#: keys of [[sensor]] and of a force's [excitation] that say how the channel's values become SI
+_UNIT_KEYS = ("unit", "sensitivity", "scale")
 _KNOWN_TABLES = ("beam", "tip", "excitation", "sensor", "recording")
 
 # What each key holds, for the "Fix:" sentences.
@@ -75,6 +90,13 @@ _MEANING = {
     "column": "a CSV column name",
     "file": "the CSV file name",
     "time_column": "the CSV column holding the time in s",
+    "delimiter": '"," ";" "\\t" (tab) or " " (runs of whitespace)',
+    "decimal": '"." or ","',
+    "sample_rate": "the sampling rate in Hz",
+    "skip_lines": "how many lines of the file to skip before its header",
+    "unit": "the unit of the channel's values (docs/format.md lists them)",
+    "sensitivity": "V per unit of the channel's quantity",
+    "scale": "SI units per recorded unit (e.g. m/s^2 per V)",
     "thermal_expansion": "alpha_T in 1/K",
     "temperature": "T0, the beam's temperature in K",
     "specific_heat": "c_p in J/(kg K)",
@@ -82,7 +104,7 @@ _MEANING = {
     "thickness": "h, the beam's depth in the plane of bending, in m",
     "material_name": '"steel" or "aluminium"',
     "length_tolerance": "in m: the free length lies within length +- this",
-    "location_tolerance": "in m: the sensor sits within location +- this",
+    "location_tolerance": "in m: the sensor, or the hammer in [excitation], sits within location +- this",
     "mass_tolerance": "in kg: the tip mass lies within mass +- this",
     "rotary_inertia_tolerance": "in kg m^2: the tip's rotary inertia lies within rotary_inertia +- this",
 }
@@ -91,7 +113,7 @@ _MEANING = {
 # (docs/format.md). The format carries keys it does not name along without refusing them, so
 # they are kept verbatim at load (Recording.setup_keys) and checked when read (Recording.setup).
 _SETUP_KEYS = {"beam": ("length_tolerance",), "tip": ("mass_tolerance", "rotary_inertia_tolerance"),
-               "sensor": ("mass", "location_tolerance")}
+               "sensor": ("mass", "location_tolerance"), "excitation": ("location_tolerance",)}
 
 # The optional [material] table (docs/format.md): what the thermoelastic damping mechanism
 # predicts its damping from. Named materials supply handbook values of the three constants
@@ -164,7 +186,9 @@ class SetUp:
     length_tolerance: the free length lies within l +- this (m). tip_mass_tolerance (kg) and
     tip_rotary_inertia_tolerance (kg m^2): m_T and J lie within +- these. sensor_masses: each
     sensor's own mass (kg) in the order of ``Recording.sensors``, None where not stated.
-    location_tolerances: each sensor sits within its location +- this (m). A tolerance of 0
+    location_tolerances: each sensor sits within its location +- this (m).
+    excitation_location_tolerance: the hammer of a force recording hit within its location +- this
+    (m); hammer_location: its stated location (m; None unless a force recording). A tolerance of 0
     means the value is taken as stated. sensors: the recording's sensors the per-sensor entries
     refer to (their names and stated locations; not compared by ``==``, which compares what is
     stated about them).
@@ -176,6 +200,8 @@ class SetUp:
     sensor_masses: tuple[float | None, ...] = ()
     location_tolerances: tuple[float, ...] = ()
     sensors: tuple[Sensor, ...] = field(default=(), compare=False)
+    excitation_location_tolerance: float = 0.0
+    hammer_location: float | None = field(default=None, compare=False)
 
     @property
     def stated_mass(self) -> float:
@@ -191,6 +217,8 @@ class Excitation:
     kind "release": free decay from the static deflection under ``tip_load`` (N) at t <= 0.
     kind "free_decay": an unmeasured tap; no force acts from ``start`` (s) on and the
     state at ``start`` is unknown. Fields that do not belong to the kind are None.
+    unit: the unit the force was stated in (``"kN"``, ``"lbf"``, ``"N"``; ``"V"`` for a
+    ``scale``), None when none was stated; ``Recording.force`` is in N whatever it is.
     """
 
     kind: str
@@ -198,6 +226,7 @@ class Excitation:
     column: str | None = None
     tip_load: float | None = None
     start: float | None = None
+    unit: str | None = None
 
 
 @dataclass(frozen=True)
@@ -205,12 +234,16 @@ class Sensor:
     """One measured channel: ``quantity`` at ``location`` (m), held in CSV ``column``.
 
     quantity is "acceleration" (m/s^2), "velocity" (m/s) or "displacement" (m).
+    unit: the unit the channel was stated in, in beam.toml or its header cell (``"g"``,
+    ``"mm/s"``, ``"m/s^2"``; ``"V"`` for a ``scale``), None when none was stated (SI assumed);
+    the recording's signals are SI whatever it is.
     """
 
     name: str
     location: float
     quantity: str
     column: str
+    unit: str | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -307,7 +340,7 @@ class Recording:
         """What beam.toml states about the set-up (sensor masses, tolerances), checked;
         RecordingError naming the key and the fix for a non-numeric, negative or non-finite value."""
         return _read_setup(self.setup_keys, self.sensors, self.beam.length,
-                           (self.source or Path(".")) / "beam.toml")
+                           (self.source or Path(".")) / "beam.toml", self.excitation)
 
     def with_signals(self, signals) -> Recording:
         """A copy with ``signals`` (shape (n_samples, n_sensors)) in place of the measured ones."""
@@ -348,16 +381,23 @@ def load_recording(path: str | os.PathLike) -> Recording:
     tip = _read_tip(doc, toml_path)
     excitation = _read_excitation(doc, toml_path, beam.length)
     sensors = _read_sensors(doc, toml_path, beam.length)
-    csv_name, time_column = _read_recording_table(doc, toml_path)
-    _check_distinct_columns(toml_path, excitation, sensors, time_column)
-    table = _read_csv(toml_path.parent / csv_name)
-    _check_columns_present(toml_path, table, excitation, sensors, time_column, csv_name)
-    time = table.column(time_column)
-    _check_time(table, time_column, time)
+    scalings = _read_scalings(doc, toml_path, excitation, sensors)
+    source = _read_recording_table(doc, toml_path)
+    _check_distinct_columns(toml_path, _claims(excitation, sensors, source.time_column or DEFAULT_TIME_COLUMN))
+    table, stated_rate = _read_data(toml_path.parent / source.file, source)
+    cells = _resolve_columns(toml_path, table, excitation, sensors, source, stated_rate)
+    time = _read_time(toml_path, table, cells.get(None), source)
     _check_start(toml_path, excitation, time)
-    force = table.column(excitation.column) if excitation.kind == "force" else None
-    _check_force(table, excitation, force)
-    signals = np.column_stack([table.column(s.column) for s in sensors])
+    force = None
+    if excitation.kind == "force":
+        force = table.column(cells[excitation.column])
+        _check_force(table, excitation, force)
+        force, unit = _to_si(toml_path, table, cells[excitation.column], force, scalings[0])
+        excitation = replace(excitation, unit=unit)
+    channels = [_to_si(toml_path, table, cells[s.column], table.column(cells[s.column]), scaling)
+                for s, scaling in zip(sensors, scalings[1:])]
+    sensors = tuple(replace(s, unit=unit) for s, (_, unit) in zip(sensors, channels))
+    signals = np.column_stack([values for values, _ in channels])
     extra = {key: value for key, value in doc.items() if key not in _KNOWN_TABLES}
     return Recording(beam, tip, excitation, sensors, time, signals, force, toml_path.parent, extra,
                      _stated_setup(doc))
@@ -542,7 +582,7 @@ def _stated_setup(doc: dict) -> dict:
     """The set-up keys of beam.toml's [beam], [tip] and [[sensor]] tables, verbatim (only those
     present; one dict per sensor); the tables themselves have been checked."""
     stated = {}
-    for name in ("beam", "tip"):
+    for name in ("beam", "tip", "excitation"):
         table = doc.get(name, {})
         if keys := {key: table[key] for key in _SETUP_KEYS[name] if key in table}:
             stated[name] = keys
@@ -552,7 +592,8 @@ def _stated_setup(doc: dict) -> dict:
     return stated
 
 
-def _read_setup(stated: dict, sensor_list: tuple[Sensor, ...], length: float, file: Path) -> SetUp:
+def _read_setup(stated: dict, sensor_list: tuple[Sensor, ...], length: float, file: Path,
+                excitation: Excitation | None = None) -> SetUp:
     n_sensors = len(sensor_list)
     beam, tip = stated.get("beam", {}), stated.get("tip", {})
     sensors = list(stated.get("sensor", []))
@@ -571,7 +612,27 @@ def _read_setup(stated: dict, sensor_list: tuple[Sensor, ...], length: float, fi
         location_tolerances=tuple(_non_negative(table, "location_tolerance", label, file)
                                   for table, label in zip(sensors, labels)),
         sensors=tuple(sensor_list),
+        excitation_location_tolerance=_hammer_tolerance(stated.get("excitation", {}), sensor_list, sensors,
+                                                        excitation, file),
+        hammer_location=excitation.location if excitation is not None else None,
     )
+
+
+def _hammer_tolerance(table: dict, sensor_list: tuple[Sensor, ...], sensors: list[dict],
+                      excitation: Excitation | None, file: Path) -> float:
+    """``[excitation] location_tolerance`` of a force recording (m; 0 for other kinds, whose
+    reader warns about the key as unused); refused beside a sensor named "hammer" with a
+    location tolerance, whose offset would take the hammer's parameter name dx_hammer."""
+    if excitation is None or excitation.kind != "force":
+        return 0.0
+    tolerance = _non_negative(table, "location_tolerance", "[excitation]", file)
+    clash = [i for i, (sensor, keys) in enumerate(zip(sensor_list, sensors), 1)
+             if sensor.name == "hammer" and _non_negative(keys, "location_tolerance", f"[[sensor]] #{i}", file) > 0]
+    if tolerance > 0 and clash:
+        raise RecordingError(file, f"[[sensor]] #{clash[0]} .name", 'a sensor named "hammer" with a location '
+                             "tolerance beside [excitation] location_tolerance: both offsets would be dx_hammer",
+                             "rename the sensor.")
+    return tolerance
 
 
 def _non_negative(table: dict, key: str, label: str, file: Path) -> float:
@@ -597,7 +658,7 @@ def _read_excitation(doc: dict, file: Path, length: float) -> Excitation:
         values = {"tip_load": _number(table, "tip_load", label, file)}
     else:
         values = {"start": _number(table, "start", label, file)}
-    used = ("kind", *_EXCITATION_KEYS[kind])
+    used = ("kind", *_EXCITATION_KEYS[kind], *(_SETUP_KEYS["excitation"] + _UNIT_KEYS if kind == "force" else ()))
     _warn_unused(table, used, label, file, why=f'kind = "{kind}" uses only {", ".join(used)}')
     return Excitation(kind=kind, **values)
 
@@ -636,24 +697,67 @@ def _read_sensor(table, label: str, file: Path, length: float) -> Sensor:
         quantity=_choice(table, "quantity", label, file, QUANTITIES),
         column=_text(table, "column", label, file),
     )
-    _warn_unused(table, (*_SENSOR_KEYS, *_SETUP_KEYS["sensor"]), label, file)
+    _warn_unused(table, (*_SENSOR_KEYS, *_UNIT_KEYS, *_SETUP_KEYS["sensor"]), label, file)
     return sensor
 
 
-def _read_recording_table(doc: dict, file: Path) -> tuple[str, str]:
+@dataclass(frozen=True)
+class _Source:
+    """The [recording] table: the data file, its time column (None: not stated, "time" or a
+    column named as a time), and how to read a text export (None: sniffed)."""
+
+    file: str
+    time_column: str | None
+    delimiter: str | None = None
+    decimal: str | None = None
+    sample_rate: float | None = None
+    skip_lines: int = 0
+
+    @property
+    def export(self) -> bool:
+        """Whether a key of a text export is stated, so the file is read as one."""
+        return (self.delimiter, self.decimal, self.sample_rate) != (None, None, None) or self.skip_lines > 0
+
+
+def _read_recording_table(doc: dict, file: Path) -> _Source:
+    label = "[recording]"
     table = _table(doc, "recording", file, required=False)
-    csv_name = _text(table, "file", "[recording]", file, default=DEFAULT_CSV)
-    time_column = _text(table, "time_column", "[recording]", file, default=DEFAULT_TIME_COLUMN)
-    _warn_unused(table, _RECORDING_KEYS, "[recording]", file)
-    return csv_name, time_column
+    keys = {"file": _text(table, "file", label, file, default=DEFAULT_CSV)}
+    keys["time_column"] = _text(table, "time_column", label, file) if "time_column" in table else None
+    if "delimiter" in table:
+        keys["delimiter"] = _choice(table, "delimiter", label, file, tuple(STATED_DELIMITERS))
+    if "decimal" in table:
+        keys["decimal"] = _choice(table, "decimal", label, file, (".", ","))
+        if keys["decimal"] == "," == keys.get("delimiter"):
+            raise RecordingError(file, f"{label} .decimal", "a comma cannot be both the delimiter and the decimal mark",
+                                 'state the delimiter the file uses (";", "\\t" or " ") with decimal = ",".')
+    if "sample_rate" in table:
+        rate = _number(table, "sample_rate", label, file)
+        if not 1 / STEP_RANGE[1] <= rate <= 1 / STEP_RANGE[0]:
+            raise RecordingError(file, f"{label} .sample_rate", f"{rate!r} Hz is not a sampling rate",
+                                 f"give the rate in Hz, between {1 / STEP_RANGE[1]:g} and {1 / STEP_RANGE[0]:g}.")
+        keys["sample_rate"] = rate
+    if "skip_lines" in table:
+        skip = table["skip_lines"]
+        if isinstance(skip, bool) or not isinstance(skip, int) or skip < 0:
+            raise RecordingError(file, f"{label} .skip_lines", f"{skip!r} is not a count of lines",
+                                 "write skip_lines as a whole number >= 0.")
+        keys["skip_lines"] = skip
+    _warn_unused(table, (*_RECORDING_KEYS, *_EXPORT_KEYS), label, file)
+    return _Source(**keys)
 
 
-def _check_distinct_columns(file: Path, excitation: Excitation, sensors, time_column: str) -> None:
-    # Two channels read from one column would count the same data twice in a likelihood.
-    owners = {time_column: "[recording] .time_column"}
-    claims = [(f"[[sensor]] #{i} .column", s.column) for i, s in enumerate(sensors, 1)]
+def _claims(excitation: Excitation, sensors, time_column: str | None) -> list[tuple[str, str]]:
+    """(key, column) for the time (unless None), the force and each sensor, in that order."""
+    claims = [("[recording] .time_column", time_column)] if time_column is not None else []
     if excitation.kind == "force":
-        claims.insert(0, ("[excitation] .column", excitation.column))
+        claims.append(("[excitation] .column", excitation.column))
+    return claims + [(f"[[sensor]] #{i} .column", s.column) for i, s in enumerate(sensors, 1)]
+
+
+def _check_distinct_columns(file: Path, claims: list[tuple[str, str]]) -> None:
+    # Two channels read from one column would count the same data twice in a likelihood.
+    owners = {}
     for where, column in claims:
         if column in owners:
             raise RecordingError(
@@ -663,17 +767,42 @@ def _check_distinct_columns(file: Path, excitation: Excitation, sensors, time_co
         owners[column] = where
 
 
-def _check_columns_present(file: Path, table, excitation, sensors, time_column: str, csv_name: str) -> None:
-    wanted = [("[recording] .time_column", time_column)]
-    if excitation.kind == "force":
-        wanted.append(("[excitation] .column", excitation.column))
-    wanted += [(f"[[sensor]] #{i} .column", s.column) for i, s in enumerate(sensors, 1)]
-    for where, column in wanted:
-        if column not in table.header:
-            raise RecordingError(
-                file, where, f"{csv_name} has no column {column!r} (its columns: {', '.join(table.header)})",
-                f"name one of those columns here, or add a {column!r} column to {csv_name}.",
-            )
+def _resolve_columns(file: Path, table: CellTable, excitation, sensors, source: _Source,
+                     stated_rate: float | None) -> dict:
+    """The header cell each column of beam.toml names (``column = "Accel tip"`` reads the cell
+    ``Accel tip (g)``), and under the key None the time column's (None when the time is rebuilt
+    from ``sample_rate`` and the file has none); RecordingError for a column the file lacks."""
+    cells = {None: _time_cell(file, table, source, stated_rate)}
+    claims = _claims(excitation, sensors, None)
+    for where, column in claims:
+        cells[column] = _header_cell(file, table, where, column, source.file)
+    time_claim = [("[recording] .time_column", cells[None])] if cells[None] is not None else []
+    _check_distinct_columns(file, time_claim + [(where, cells[column]) for where, column in claims])
+    return cells
+
+
+def _header_cell(file: Path, table: CellTable, where: str, column: str, csv_name: str, fix: str = "") -> str:
+    found = find_column(table.header, column)
+    if not found:
+        raise RecordingError(
+            file, where, f"{csv_name} has no column {column!r} (its columns: {', '.join(table.header)})",
+            f"name one of those columns here, or add a {column!r} column to {csv_name}{fix}.",
+        )
+    if len(found) > 1:
+        raise RecordingError(file, where, f"{column!r} names {len(found)} columns of {csv_name}: {', '.join(found)}",
+                             "write the header cell in full, unit included.")
+    return found[0]
+
+
+def _time_cell(file: Path, table: CellTable, source: _Source, stated_rate: float | None) -> str | None:
+    """The time column's header cell: the one stated, else "time", else one named as a time."""
+    if source.time_column is None and not find_column(table.header, DEFAULT_TIME_COLUMN):
+        recognised = time_column(table.header)
+        if recognised is not None or source.sample_rate is not None:
+            return recognised
+    stated = f" (the file states {stated_rate:.6g} Hz)" if stated_rate else ""
+    return _header_cell(file, table, "[recording] .time_column", source.time_column or DEFAULT_TIME_COLUMN,
+                        source.file, f", or state [recording] sample_rate (Hz) to rebuild the time{stated}")
 
 
 def _check_start(file: Path, excitation: Excitation, time: np.ndarray) -> None:
@@ -688,7 +817,7 @@ def _check_start(file: Path, excitation: Excitation, time: np.ndarray) -> None:
         )
 
 
-def _check_force(table: _CsvTable, excitation: Excitation, force: np.ndarray | None) -> None:
+def _check_force(table: CellTable, excitation: Excitation, force: np.ndarray | None) -> None:
     # A force recording is defined by its measured force: a channel of zeros holds no impact.
     if force is None or np.any(force != 0.0):
         return
@@ -699,64 +828,43 @@ def _check_force(table: _CsvTable, excitation: Excitation, force: np.ndarray | N
     )
 
 
-# --------------------------------------------------------------------------- reading the CSV
+# --------------------------------------------------------------------------- reading the data file
 
 
-@dataclass(frozen=True)
-class _CsvTable:
-    """The cells of a recording CSV, kept as text until a column is asked for."""
+def _read_data(path: Path, source: _Source) -> tuple[CellTable, float | None]:
+    """The cells of the data file, and the sample rate (Hz) a text export states (else None).
 
-    path: Path
-    header: tuple[str, ...]
-    rows: list[list[str]]
-    lines: list[int]  # 1-based line number of each row; the header is line 1
-
-    def column(self, name: str) -> np.ndarray:
-        """The finite float64 values of column ``name``, or RecordingError at the first bad cell."""
-        j = self.header.index(name)
-        cells = [row[j] for row in self.rows]
-        try:
-            values = np.fromiter(map(float, cells), dtype=np.float64, count=len(cells))
-        except ValueError:
-            raise self._unparsable(name, cells) from None
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            i = bad[0]
-            what = "NaN" if np.isnan(values[i]) else "an infinite value"
-            raise RecordingError(
-                self.path, f'line {self.lines[i]}, column "{name}"', f"{cells[i].strip()!r} is {what}",
-                "replace the bad sample or trim the record so that it excludes it.",
-            )
-        bad = np.flatnonzero(np.abs(values) > MAX_MAGNITUDE)
-        if bad.size:
-            i = bad[0]
-            raise RecordingError(
-                self.path, f'line {self.lines[i]}, column "{name}"',
-                f"{cells[i].strip()!r} is beyond the magnitudes a recording can hold (up to {MAX_MAGNITUDE:g})",
-                "write the channel in SI units (m, m/s, m/s^2, N, s), and replace or trim a corrupt sample.",
-            )
-        return values
-
-    def _unparsable(self, name: str, cells: list[str]) -> RecordingError:
-        """The error for the first cell of ``cells`` that float() refuses."""
-        line, cell = next((line, cell) for line, cell in zip(self.lines, cells) if not _is_float(cell))
-        problem = "empty cell" if not cell.strip() else f"{cell!r} is not a number"
-        return RecordingError(
-            self.path, f'line {line}, column "{name}"', problem,
-            "write a plain decimal number there (e.g. 0.0125 or 1.25e-2, '.' as decimal point), "
-            "or trim the record to the rows where every channel has a value.",
+    A plain comma CSV (docs/format.md) is read as it always was; a file with comment or metadata
+    lines, another delimiter, or a [recording] key of a text export goes to the text-export reader.
+    """
+    if not source.export and _is_plain_csv(path):
+        return _read_csv(path), None
+    export = read_export_cells(path, delimiter=source.delimiter, decimal=source.decimal,
+                               skip_lines=source.skip_lines)
+    rows = export.cells.rows
+    if len(rows) < MIN_SAMPLES:
+        raise RecordingError(
+            path, "file", f"{len(rows)} data row(s); at least {MIN_SAMPLES} samples are needed (the "
+            "anti-alias filter's own response is longer than a shorter record)",
+            "supply the full record: one header line, then one row per sample.",
         )
+    return export.cells, export.sample_rate
 
 
-def _is_float(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+def _is_plain_csv(path: Path) -> bool:
+    """Whether the file starts as a recording CSV: a header of two or more comma-separated cells,
+    no comment mark, tab or semicolon in it (a missing or empty file is left to _read_csv's refusal)."""
+    if not path.is_file():
+        return True
+    with path.open(encoding="utf-8-sig", errors="replace", newline="") as stream:
+        first = stream.readline().rstrip("\r\n")
+    if not first.strip():
+        return True
+    return not first.lstrip().startswith(COMMENT_PREFIXES) and "\t" not in first and ";" not in first \
+        and len(next(csv.reader([first]), [])) >= 2
 
 
-def _read_csv(path: Path) -> _CsvTable:
+def _read_csv(path: Path) -> CellTable:
     if not path.is_file():
         raise RecordingError(
             path, "file", "no such file",
@@ -784,7 +892,7 @@ def _read_csv(path: Path) -> _CsvTable:
             "anti-alias filter's own response is longer than a shorter record)",
             "supply the full record: one header line, then one row per sample.",
         )
-    return _CsvTable(path, header, rows, lines)
+    return CellTable(path, header, rows, lines)
 
 
 def _read_header(path: Path, reader) -> tuple[str, ...]:
@@ -794,31 +902,9 @@ def _read_header(path: Path, reader) -> tuple[str, ...]:
             path, "line 1", "no header line",
             "start the file with a header naming the columns, e.g. time,accel_tip.",
         )
-    _check_delimiter(path, row)
     header = tuple(name.strip() for name in row)
-    for j, name in enumerate(header):
-        if name in header[:j]:
-            raise RecordingError(
-                path, f'line 1, column "{name}"', "column name used twice", "give every column its own name."
-            )
+    check_header(path, header, 1)
     return header
-
-
-#: separators a spreadsheet or logger may have written instead of the comma
-_OTHER_DELIMITERS = {";": "semicolons (';')", "\t": "tabs", "|": "vertical bars ('|')"}
-
-
-def _check_delimiter(path: Path, header: list[str]) -> None:
-    """Refuse a header that is one cell holding another separator: the file is not comma-separated."""
-    if len(header) != 1:
-        return
-    for delimiter, name in _OTHER_DELIMITERS.items():
-        if delimiter in header[0]:
-            raise RecordingError(
-                path, "line 1", f"the columns are separated by {name}, not commas ({header[0].strip()!r})",
-                "save the file as comma-separated values with '.' as the decimal point "
-                "(in a spreadsheet: CSV, comma as field separator).",
-            )
 
 
 def _read_rows(path: Path, reader, width: int) -> tuple[list[list[str]], list[int]]:
@@ -841,8 +927,37 @@ def _read_rows(path: Path, reader, width: int) -> tuple[list[list[str]], list[in
     return rows, lines
 
 
-def _check_time(table: _CsvTable, name: str, time: np.ndarray) -> None:
-    """Refuse a time column that is not strictly increasing or not uniform (MAX_TIME_JITTER)."""
+def _read_time(file: Path, table: CellTable, cell: str | None, source: _Source) -> np.ndarray:
+    """The time in s: the time column (its unit converted; rebuilt as t0 + i dt when only the
+    print's rounding makes it uneven), or t0 + i / sample_rate when beam.toml states the rate."""
+    factor = 1.0 if cell is None else time_factor(table.path, cell)
+    read = None if cell is None else table.column(cell)
+    read = read if factor == 1.0 or read is None else read * factor
+    if source.sample_rate is None:
+        return _uniform_time(table, cell, read, factor)
+    step, n = 1.0 / source.sample_rate, len(table.rows)
+    if read is None:
+        return np.arange(n) * step
+    mean = float(read[-1] - read[0]) / (n - 1)
+    if not abs(mean - step) <= 0.01 * step:
+        raise RecordingError(
+            file, "[recording] .sample_rate",
+            f"{source.sample_rate!r} Hz disagrees with the time column {cell!r}, whose mean step is "
+            f"{mean!r} s ({1 / mean if mean > 0 else math.inf:.6g} Hz)",
+            "correct sample_rate, or leave it out to take the time from the column.",
+        )
+    return read[0] + np.arange(n) * step
+
+
+def _uniform_time(table: CellTable, name: str, time: np.ndarray, factor: float) -> np.ndarray:
+    """``time`` when strictly increasing and uniform; rebuilt as t0 + i dt when every uneven step
+    is within the print's rounding; otherwise RecordingError.
+
+    A step may differ from the mean step dt by MAX_TIME_JITTER relative, or by the rounding of
+    its two printed cells (half a unit in the last printed digit of each, ``print_resolution``)
+    plus the float64 rounding of the values: a time column printed with 9 decimals at 4096 Hz is
+    uneven by 4e-6 relative from its printing alone.
+    """
     steps = np.diff(time)
     falls = np.flatnonzero(steps <= 0.0)
     if falls.size:
@@ -860,17 +975,116 @@ def _check_time(table: _CsvTable, name: str, time: np.ndarray) -> None:
             "write the time in seconds.",
         )
     jitter = np.abs(steps - dt) / dt
-    if jitter.max() > MAX_TIME_JITTER:
-        # Name the worst step: a dropped sample shifts the mean step, so the first step
-        # over the limit can lie far before the gap that causes it.
-        k = int(np.argmax(jitter)) + 1
-        uneven = np.count_nonzero(jitter > MAX_TIME_JITTER)
+    if jitter.max() <= MAX_TIME_JITTER:
+        return time
+    resolution = print_resolution(table.cells(name)) * factor
+    rounding = 0.5 * (resolution[:-1] + resolution[1:]) + 4 * np.finfo(float).eps * np.max(np.abs(time))
+    uneven = (jitter > MAX_TIME_JITTER) & (np.abs(steps - dt) > rounding)
+    if not uneven.any():
+        return time[0] + np.arange(time.size) * dt
+    # Name the worst step: a dropped sample shifts the mean step, so the first step
+    # over the limit can lie far before the gap that causes it.
+    k = int(np.argmax(np.where(uneven, jitter, 0.0))) + 1
+    raise RecordingError(
+        table.path, f'line {table.lines[k]}, column "{name}"',
+        f"the step to here, {float(steps[k - 1])!r} s, differs from the mean step {float(dt)!r} s "
+        f"by {jitter[k - 1]:.3g} relative, the worst of {np.count_nonzero(uneven)} steps over the limit "
+        f"{MAX_TIME_JITTER:g} and the print's rounding",
+        "resample the record onto a uniform time grid (no gaps) or print the time with more digits; if "
+        "the samples are uniform and only the time column is not, state [recording] sample_rate = "
+        f"{_rounded_rate(1 / dt)} in beam.toml to rebuild the time from the rate",
+    )
+
+
+def _rounded_rate(rate: float) -> str:
+    """``rate`` (Hz) to 6 significant digits, as a whole number when it is one to 1e-6."""
+    whole = round(rate)
+    return str(whole) if whole and abs(rate - whole) <= 1e-6 * rate else f"{rate:.6g}"
+
+
+# --------------------------------------------------------------------------- units
+
+
+@dataclass(frozen=True)
+class _Scaling:
+    """How one channel's values become SI: beam.toml's ``unit`` (None: not stated), and for a
+    channel recorded in volts its ``sensitivity`` (V per unit) or ``scale`` (SI per recorded unit)."""
+
+    label: str
+    quantity: str
+    unit: Unit | None = None
+    sensitivity: float | None = None
+    scale: float | None = None
+
+
+def _read_scalings(doc: dict, file: Path, excitation: Excitation, sensors) -> list[_Scaling | None]:
+    """The force's scaling (None unless kind "force"), then each sensor's."""
+    force = None
+    if excitation.kind == "force":
+        force = _read_scaling(doc["excitation"], "[excitation]", file, "force")
+    return [force, *(_read_scaling(table, f"[[sensor]] #{i}", file, s.quantity)
+                     for i, (table, s) in enumerate(zip(doc["sensor"], sensors), 1))]
+
+
+def _read_scaling(table: dict, label: str, file: Path, quantity: str) -> _Scaling:
+    unit = None
+    if "unit" in table:
+        text = _text(table, "unit", label, file)
+        unit = parse_unit(text)
+        volts = ("; for a channel recorded in volts state sensitivity (V per unit) with the unit of the "
+                 f"{quantity}, or scale ({SI_UNITS[quantity]} per V)")
+        if unit is None or unit.quantity != quantity:
+            problem = f"unknown unit {text!r}" if unit is None else f"{text!r} is a unit of {unit.quantity}, not of {quantity}"
+            raise RecordingError(file, f"{label} .unit", problem, f"write a unit of {quantity}: one of "
+                                 f"{known_units(quantity)} (docs/format.md lists the spellings){volts}.")
+    factors = {key: _number(table, key, label, file) for key in ("sensitivity", "scale") if key in table}
+    for key, value in factors.items():
+        if value == 0.0:
+            raise RecordingError(file, f"{label} .{key}", "is zero", f"give {key} ({_MEANING[key]}).")
+    if len(factors) == 2 or ("scale" in factors and unit is not None):
+        raise RecordingError(file, f"{label} .scale", "scale converts the recorded values to SI by itself",
+                             "give either sensitivity (V per unit) with unit, or scale alone (SI units per V).")
+    return _Scaling(label, quantity, unit, factors.get("sensitivity"), factors.get("scale"))
+
+
+def _to_si(file: Path, table: CellTable, cell: str, values: np.ndarray, scaling: _Scaling) -> tuple[np.ndarray, str | None]:
+    """The channel's values in SI, and the unit stated for them (None when none was).
+
+    The header cell's unit (``Accel tip (g)``) and beam.toml's ``unit`` must agree; either alone
+    is used. A header unit this reader does not know is ignored with a warning.
+    """
+    stated = split_unit(cell)[1]
+    header = parse_unit(stated)
+    where, quantity, si = f"{scaling.label} .column", scaling.quantity, SI_UNITS[scaling.quantity]
+    if stated is not None and header is None and scaling.unit is None:
+        warnings.warn(f"{table.path}: column {cell!r}: {stated!r} is not a unit bayesbeam knows; the values are "
+                      f"taken as {si} (state {scaling.label} unit to be sure)", stacklevel=3)
+    if scaling.sensitivity is not None or scaling.scale is not None:
+        if header is not None and header.quantity != "voltage":
+            raise RecordingError(file, where, f"column {cell!r} is in {header.symbol}, not volts, but "
+                                 f"{scaling.label} states a sensitivity or scale",
+                                 "leave sensitivity and scale out for a channel recorded in physical units.")
+        volts = values * header.factor if header is not None else values
+        if scaling.scale is not None:
+            return volts * scaling.scale, header.symbol if header is not None else "V"
+        unit = scaling.unit or parse_unit(si)
+        return volts / scaling.sensitivity * unit.factor, unit.symbol
+    if header is not None and header.quantity == "voltage":
+        raise RecordingError(file, where, f"column {cell!r} is recorded in {header.symbol}",
+                             f"state {scaling.label} sensitivity (V per unit, with unit) or scale ({si} per V).")
+    if header is not None and header.quantity != quantity:
+        raise RecordingError(file, where, f"column {cell!r} is in {header.symbol}, a unit of {header.quantity}, "
+                             f"not of {quantity}", f"name the column holding the {quantity}, or correct the quantity.")
+    if header is not None and scaling.unit is not None and header.symbol != scaling.unit.symbol:
         raise RecordingError(
-            table.path, f'line {table.lines[k]}, column "{name}"',
-            f"the step to here, {float(steps[k - 1])!r} s, differs from the mean step {float(dt)!r} s "
-            f"by {jitter[k - 1]:.3g} relative, the worst of {uneven} steps over the limit {MAX_TIME_JITTER:g}",
-            "resample the record onto a uniform time grid (no gaps), or print the time with more digits.",
+            file, f"{scaling.label} .unit", f"unit {scaling.unit.symbol!r} disagrees with the unit {header.symbol!r} "
+            f"of {table.path.name}'s header cell {cell!r}",
+            f"make the two agree: correct {scaling.label} unit, or the header cell if it is the one that is wrong.",
         )
+    unit = scaling.unit or header
+    if unit is None:
+        return values, None
+    return (values if unit.factor == 1.0 else values * unit.factor), unit.symbol
 
 
 # --------------------------------------------------------------------------- writing
@@ -935,9 +1149,9 @@ def _move_into_place(staging: Path, out_dir: Path) -> None:
 
 def _csv_columns(rec: Recording) -> list[str]:
     """Column names: time first, then force (kind "force"), then the sensors in order."""
-    channels = [s.column for s in rec.sensors]
+    channels = [_written_column(s.column, s.quantity) for s in rec.sensors]
     if rec.force is not None:
-        channels.insert(0, rec.excitation.column)
+        channels.insert(0, _written_column(rec.excitation.column, "force"))
     if len(set(channels)) != len(channels):
         raise ValueError(f"two channels share a CSV column: {channels}")
     time_column = DEFAULT_TIME_COLUMN
@@ -964,10 +1178,11 @@ def _beam_toml(rec: Recording, time_column: str) -> str:
     stated = rec.setup_keys
     lines += _toml_table(["beam"], {key: getattr(rec.beam, key) for key in _BEAM_KEYS} | stated.get("beam", {}))
     lines += _toml_table(["tip"], {key: getattr(rec.tip, key) for key in _TIP_KEYS} | stated.get("tip", {}))
-    lines += _toml_table(["excitation"], _excitation_keys(rec.excitation))
+    lines += _toml_table(["excitation"], _excitation_keys(rec.excitation) | stated.get("excitation", {}))
     stated_sensors = [*stated.get("sensor", []), *[{}] * len(rec.sensors)]
     for sensor, stated_keys in zip(rec.sensors, stated_sensors):
-        keys = {key: getattr(sensor, key) for key in _SENSOR_KEYS} | stated_keys
+        keys = {key: getattr(sensor, key) for key in _SENSOR_KEYS} | _written_unit(sensor, sensor.quantity)
+        keys = keys | stated_keys
         lines += ["", "[[sensor]]", *_toml_pairs(keys)]
     lines += _toml_table(["recording"], {"file": DEFAULT_CSV, "time_column": time_column})
     for key, table in tables.items():
@@ -981,7 +1196,22 @@ def _excitation_keys(excitation: Excitation) -> dict:
         values[key] = getattr(excitation, key)
         if values[key] is None:
             raise ValueError(f'excitation kind "{excitation.kind}" needs {key}, which is None')
-    return values
+    return values | (_written_unit(excitation, "force") if excitation.kind == "force" else {})
+
+
+def _written_column(column: str, quantity: str) -> str:
+    """The CSV column a channel is written to: its name as read, less a header unit other than
+    SI (the values written are SI: ``Accel tip (g)`` is written as ``Accel tip``)."""
+    name, stated = split_unit(column)
+    unit = parse_unit(stated)
+    return name if unit is not None and unit.symbol != SI_UNITS[quantity] else column
+
+
+def _written_unit(channel: Sensor | Excitation, quantity: str) -> dict:
+    """``column`` as written and, for a channel whose unit was stated, ``unit``: the SI unit of
+    its quantity, since the values written are SI."""
+    written = {"column": _written_column(channel.column, quantity)}
+    return written | ({"unit": SI_UNITS[quantity]} if channel.unit is not None else {})
 
 
 def _toml_table(path: list[str], table: dict) -> list[str]:

@@ -23,7 +23,7 @@ Reading rules (each refusal is a :class:`~bayesbeam.io.RecordingError` naming th
   12 acceleration, 13 excitation force) or, when that is 0 (unknown), its units label.
   Exactly one force channel or none.
 * Units: a recognised ordinate units label (``m/s^2``, ``m/s2``, ``g``, ``mm/s``, ``N``,
-  ``kN``, ... see :data:`UNITS`) converts to SI; a blank or ``NONE`` label means the units of
+  ``kN``, ... see :mod:`bayesbeam.io.units`) converts to SI; a blank or ``NONE`` label means the units of
   dataset 164 (SI without one), converted with its length and force factors. An
   unrecognised label is refused.
 * Direction: every channel must measure along one axis (``|dir|`` in 1-3, the bending
@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from .atomic import atomic_write
+from .channels import checked_table
 from .errors import RecordingError
 from .recording import (
     _KNOWN_TABLES,
@@ -70,28 +71,21 @@ from .recording import (
     _read_toml,
     _within_beam,
 )
+from .table import Channel, ChannelTable
+from .units import parse_unit
 
 __all__ = [
-    "UNITS",
     "BeamDescription",
     "load_beam_description",
     "node_numbers",
     "read_uff58",
+    "read_uff58_channels",
     "write_uff58",
     "write_uff_modes",
 ]
 
 #: UFF58 ordinate specific data type -> quantity
 SPEC_TYPES = {8: "displacement", 11: "velocity", 12: "acceleration", 13: "force"}
-#: units label (lower case, no blanks, '**' as '^') -> (quantity, factor to SI)
-UNITS = {
-    "m": ("displacement", 1.0), "mm": ("displacement", 1e-3), "um": ("displacement", 1e-6),
-    "in": ("displacement", 0.0254),
-    "m/s": ("velocity", 1.0), "mm/s": ("velocity", 1e-3), "in/s": ("velocity", 0.0254),
-    "m/s^2": ("acceleration", 1.0), "m/s2": ("acceleration", 1.0), "mm/s^2": ("acceleration", 1e-3),
-    "mm/s2": ("acceleration", 1e-3), "g": ("acceleration", 9.80665), "in/s^2": ("acceleration", 0.0254),
-    "n": ("force", 1.0), "kn": ("force", 1e3), "lbf": ("force", 4.4482216152605),
-}
 #: the SI label written for each quantity, and its exponents of length and force (dataset 164)
 SI_LABELS = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
 _EXPONENTS = {"displacement": (1, 0), "velocity": (1, 0), "acceleration": (1, 0), "force": (0, 1)}
@@ -307,8 +301,9 @@ def _label(dset: dict) -> str:
 def _quantity_and_factor(file, k, dset, factors) -> tuple[str, float]:
     label = _label(dset)
     quantity = SPEC_TYPES.get(int(dset.get("ordinate_spec_data_type", 0)))
-    if label in UNITS:
-        unit_quantity, factor = UNITS[label]
+    unit = parse_unit(label, ignore_case=True) if label else None
+    if unit is not None and unit.quantity in SI_LABELS:
+        unit_quantity, factor = unit.quantity, unit.factor
         if quantity not in (None, unit_quantity):
             _fail(file, k, dset, f"units {label!r} do not fit the data type {quantity}",
                   f"label the units of a {quantity} in SI ({SI_LABELS[quantity]}) or fix the data type.")
@@ -434,3 +429,23 @@ def read_uff58(uff_path: str | os.PathLike, beam_path: str | os.PathLike) -> Rec
     return Recording(desc.beam, desc.tip, excitation, tuple(s for s, _ in sensors), time,
                      np.column_stack([d for _, d in sensors]), None if force[0] is None else force[0].data,
                      file, desc.extra)
+
+
+def read_uff58_channels(uff_path: str | os.PathLike) -> ChannelTable:
+    """A UFF file's time histories as named channels, without a beam description.
+
+    Read and refused as :func:`read_uff58` reads them (module docstring): each channel is in SI
+    (its unit the SI label of its quantity) and sign-flipped along +axis; the metadata give each
+    channel's node (``node <name>``) and the node's x coordinate (m) when the file has one.
+    """
+    file = Path(uff_path)
+    sets = _read_sets(file)
+    channels = _time_channels(file, sets)
+    _check_channels(file, sets, channels)
+    nodes = _file_nodes(sets)
+    first = channels[0]
+    metadata = {f"node {c.name}": f"{c.node}" + (f" (x = {nodes[c.node]!r} m)" if c.node in nodes else "")
+                for c in channels}
+    return checked_table(file, [Channel(c.name, SI_LABELS[c.quantity], c.data) for c in channels],
+                         time=first.start + first.step * np.arange(first.data.size), sample_rate=1.0 / first.step,
+                         metadata=metadata)

@@ -144,11 +144,11 @@ def test_planted_mains_line_and_clipping(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("breakage, named", [
-    (lambda text: text.replace(",", ";"), "semicolons"),
+    (lambda text: text.replace(",", "|"), "cannot tell how the columns are separated"),
     (lambda text: "\n".join(text.splitlines()[:4]) + "\n", "data row(s)"),
 ])
 def test_broken_copies_exit_2(tmp_path, capsys, breakage, named):
-    """A ';'-separated CSV and a 3-sample record: exit 2, the error names the file and the fault,
+    """A '|'-separated CSV and a 3-sample record: exit 2, the error names the file and the fault,
     and nothing is written."""
     broken = tmp_path / "broken"
     broken.mkdir()

@@ -24,7 +24,6 @@ area = 0.597e-3
 second_moment = 1.64e-9
 modulus = 2.68e10
 """
-Q3 = ["--model", "q3", "--set", "EI=44.28", "--set", "gamma=0.12", "--set", "a=0.025", "--set", "b=0.18"]
 
 
 @pytest.fixture
@@ -129,27 +128,3 @@ def test_era_refusals_exit_2(tmp_path, capsys):
     assert "--start/--stop" in capsys.readouterr().err
     assert main(["era", str(HAMMER), "--out", str(tmp_path / "o"), "--order", "0"]) == 2
     assert "--order 0" in capsys.readouterr().err
-
-
-def test_simulate_uff_imports_back_to_the_same_recording(tmp_path, capsys):
-    sim = tmp_path / "sim"
-    assert main(["simulate", str(HAMMER), *Q3, "--out", str(sim), "--uff"]) == 0
-    assert "recording.uff" in capsys.readouterr().out
-    back = tmp_path / "back"
-    assert main(["import-uff", str(sim / "recording.uff"), "--beam", str(sim / "beam.toml"),
-                 "--out", str(back)]) == 0
-    assert "8192 samples at 2048 Hz" in capsys.readouterr().out
-    original, imported = load_recording(sim), load_recording(back)
-    # ASCII UFF58 keeps 12 significant digits of the simulated doubles; all else is exact.
-    np.testing.assert_allclose(imported.signals, original.signals, rtol=5e-12, atol=0)
-    np.testing.assert_array_equal(imported.force, original.force)  # the example's 9-digit force
-    np.testing.assert_array_equal(imported.time, original.time)
-    assert (imported.sensors, imported.excitation, imported.extra) == (
-        original.sensors, original.excitation, original.extra)
-
-
-def test_import_uff_refusal_exits_2(tmp_path, capsys):
-    (tmp_path / "beam.toml").write_text(PAPER_BEAM)
-    code = main(["import-uff", str(tmp_path / "absent.uff"), "--beam", str(tmp_path / "beam.toml"),
-                 "--out", str(tmp_path / "o")])
-    assert code == 2 and "no such file" in capsys.readouterr().err

@@ -39,7 +39,7 @@ SHARED = {
     "--stop": FITTING,
     "--max-frequency": FITTING,
 }
-WRITING = ("simulate", "fit", "compare", "batch", "diagnose", "ema", "era", "import-uff")
+WRITING = ("simulate", "fit", "compare", "batch", "diagnose", "ema", "era", "import")
 
 
 def subparsers() -> dict[str, argparse.ArgumentParser]:
@@ -58,7 +58,7 @@ def rendered_help(parser, action) -> str:
 
 def argv(command: str, *extra: str, out: str = "x") -> list[str]:
     """A minimal valid command line of ``command``."""
-    positional = {"ema": ["table.csv", "--beam", "beam.toml"], "import-uff": ["a.uff", "--beam", "beam.toml"],
+    positional = {"ema": ["table.csv", "--beam", "beam.toml"], "import": ["a.uff", "--beam", "beam.toml"],
                   "models": []}.get(command, [HAMMER])
     return [command, *positional, *extra, *(["--out", out] if command in WRITING else [])]
 
@@ -242,7 +242,7 @@ def test_every_command_with_out_has_overwrite_with_one_of_two_meanings():
     for name in WRITING:
         flags = options(parsers[name])
         assert flags["--out"].required and flags["--out"].metavar == "DIR", name
-        expected = OVERWRITE_FOLDER_HELP if name in ("simulate", "import-uff") else OVERWRITE_FILES_HELP
+        expected = OVERWRITE_FOLDER_HELP if name in ("simulate", "import") else OVERWRITE_FILES_HELP
         assert rendered_help(parsers[name], flags["--overwrite"]) == expected, name
 
 

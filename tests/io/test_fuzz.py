@@ -73,25 +73,34 @@ def mutate_toml(action, where, payload) -> str:
     return "\n".join(lines) + "\n"
 
 
-def mutate_csv(action, where, payload) -> str:
-    lines = list(CSV_LINES)
+def mutate_lines(lines: list[str], action, where, payload, delimiter: str = ",") -> str:
+    """The file of ``lines`` (cells separated by ``delimiter``) with one mutation applied."""
+    lines = list(lines)
     if action == "cell":
         i, j = where
-        cells = lines[i].split(",")
-        cells[j] = payload
-        lines[i] = ",".join(cells)
+        cells = lines[i].split(delimiter)
+        cells[j % len(cells)] = payload
+        lines[i] = delimiter.join(cells)
     elif action == "column":
         lines[1:] = [_scaled(line, where, payload) for line in lines[1:]]
+    elif action == "insert":
+        lines.insert(where, payload)
     elif action == "delete":
         del lines[where]
     elif action == "truncate":
         lines = lines[:where]
     elif action == "delimiter":
-        lines = [line.replace(",", payload) for line in lines]
+        lines = [line.replace(delimiter, payload) for line in lines]
+    elif action == "decimal":
+        lines = [line.replace(".", payload) for line in lines]
     else:
         i, j = where
         lines[i] = lines[i][:j] + payload + lines[i][j + 1:]
     return "\n".join(lines) + "\n"
+
+
+def mutate_csv(action, where, payload) -> str:
+    return mutate_lines(CSV_LINES, action, where, payload)
 
 
 def _scaled(line: str, j: int, factor) -> str:
@@ -103,20 +112,31 @@ def _scaled(line: str, j: int, factor) -> str:
     return ",".join(cells)
 
 
+def loaded(directory: Path) -> Recording | None:
+    """The recording in ``directory``, or None when it is refused (a RecordingError, counted as a
+    hypothesis event); any other exception fails the test."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # unused-key and unknown-unit warnings are part of the contract
+        try:
+            rec = load_recording(directory)
+        except RecordingError as err:
+            event(f"refused at {err.where.split(',')[0]}")
+            return None
+    event("accepted")
+    assert isinstance(rec, Recording)
+    return rec
+
+
 def check(tmp_path: Path, toml: str, csv: str) -> None:
     directory = tmp_path / "rec"
     directory.mkdir(exist_ok=True)
     (directory / "beam.toml").write_text(toml, encoding="utf-8")
     (directory / "recording.csv").write_text(csv, encoding="utf-8")
+    rec = loaded(directory)
+    if rec is None:
+        return
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")          # unused-key warnings are part of the contract
-        try:
-            rec = load_recording(directory)
-        except RecordingError as err:
-            event(f"refused at {err.where.split(',')[0]}")
-            return
-        event("accepted")
-        assert isinstance(rec, Recording)
+        warnings.simplefilter("ignore")
         model = BeamModel.from_recording(rec, "q1", 4)
         params = {"EI": rec.beam.nominal_EI, **DAMPING}
         initial = model.fit_initial(params) if rec.excitation.kind == "free_decay" else None
