@@ -14,7 +14,8 @@ looks at its signals:
   record (:func:`bayesbeam.checks.discrepancy.line_persistence`), where a beam mode would decay;
 - clipping: a channel's extreme value held by :data:`CLIP_SAMPLES` or more samples (the sampled
   trace of flat runs at the converter's limit: a noisy, unclipped signal reaches its extreme once);
-- a suggested top of the fitted band and analysis window.
+- a suggested top of the fitted band and analysis window;
+- each channel's unit judged from physics (:mod:`bayesbeam.checks.units`).
 
 It sits in ``checks`` because it needs the reader (io), the pulse finder (response), the
 eigenvalues (modal) and the mains-line test of the discrepancy checks, and nothing above them;
@@ -29,6 +30,8 @@ import numpy as np
 from scipy import signal
 
 from bayesbeam.checks.discrepancy import PERSISTENT, line_persistence, mains_harmonic
+from bayesbeam.checks.units import report_text as units_text
+from bayesbeam.checks.units import unit_check
 from bayesbeam.inference.fit import DEFAULT_BAND
 from bayesbeam.modal.eigen import natural_frequencies_hz
 from bayesbeam.response.linear import PASSBAND
@@ -95,6 +98,7 @@ def survey(rec) -> Survey:
         "clipping": {c["name"]: c["clipping"] for c in channels + _force_channel(rec) if c["clipping"]},
     }
     summary["suggested"] = _suggestion(rec, summary, i0)
+    summary["units"] = unit_check(rec, summary)
     return Survey(summary, spectra, segment)
 
 
@@ -107,6 +111,8 @@ def describe(rec) -> dict:
     excitation = {"kind": exc.kind}
     excitation.update({k: getattr(exc, k) for k in ("location", "column", "tip_load", "start")
                        if getattr(exc, k) is not None})
+    if exc.kind == "force":
+        excitation["location_tolerance_m"] = setup.excitation_location_tolerance
     return {
         "beam": {"length_m": beam.length, "density_kg_m3": beam.density, "area_m2": beam.area,
                  "second_moment_m4": beam.second_moment, "modulus_Pa": beam.modulus,
@@ -115,7 +121,7 @@ def describe(rec) -> dict:
                 "m_T_tolerance_kg": setup.tip_mass_tolerance, "J_tolerance_kg_m2": setup.tip_rotary_inertia_tolerance},
         "excitation": excitation,
         "sensors": [{"name": s.name, "location_m": s.location, "quantity": s.quantity, "column": s.column,
-                     "unit": UNITS[s.quantity], "mass_kg": mass, "location_tolerance_m": tolerance}
+                     "unit": UNITS[s.quantity], "stated_unit": s.unit, "mass_kg": mass, "location_tolerance_m": tolerance}
                     for s, mass, tolerance in zip(rec.sensors, setup.sensor_masses, setup.location_tolerances)],
         "fs_hz": rec.fs, "n_samples": rec.n_samples, "duration_s": rec.n_samples / rec.fs,
     }
@@ -307,11 +313,12 @@ def report_lines(summary: dict) -> list[str]:
              "  tip body: " + ("none" if not (tip["m_T_kg"] or tip["J_kg_m2"])
                                else f"m_T = {tip['m_T_kg']:g} kg, J = {tip['J_kg_m2']:g} kg m^2"),
              "  excitation: " + _excitation_text(exc)]
-    lines += [f"  sensor {s['name']}: {s['quantity']} at x = {s['location_m']:g} m, column {s['column']!r} ({s['unit']})"
+    lines += [f"  sensor {s['name']}: {s['quantity']} at x = {s['location_m']:g} m, column {s['column']!r} ({_unit_text(s)})"
               + _stated_text(s) for s in read["sensors"]]
     stated = [f"{label} +- {value:g} {unit}" for label, value, unit in (
         ("length", beam.get("length_tolerance_m"), "m"), ("m_T", tip.get("m_T_tolerance_kg"), "kg"),
-        ("J", tip.get("J_tolerance_kg_m2"), "kg m^2")) if value]
+        ("J", tip.get("J_tolerance_kg_m2"), "kg m^2"), ("hammer location", exc.get("location_tolerance_m"), "m"))
+        if value]
     if stated:
         lines.append("  stated tolerances: " + ", ".join(stated))
     lines += [f"  sampling: {read['n_samples']} samples at {read['fs_hz']:.6g} Hz, {read['duration_s']:.4g} s", "found:"]
@@ -331,7 +338,13 @@ def report_lines(summary: dict) -> list[str]:
     s = summary["suggested"]
     lines.append(f"  suggested: --max-frequency {s['max_frequency_hz']:.4g} ({s['reason']}); "
                  f"window --start {s['start_s']:.4g} --stop {s['stop_s']:.4g} (until the response sinks into the noise)")
-    return lines
+    return lines + units_text(summary["units"])
+
+
+def _unit_text(sensor: dict) -> str:
+    """The sensor's unit as stated, and the SI unit it was converted to when they differ ("g -> m/s^2")."""
+    stated, si = sensor.get("stated_unit"), sensor["unit"]
+    return si if stated in (None, si) else f"{stated} -> {si}"
 
 
 def _stated_text(sensor: dict) -> str:

@@ -1,6 +1,7 @@
 """``bayesbeam check``: validate a recording and say what it holds before anything is fitted."""
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 from bayesbeam import __version__
@@ -12,7 +13,8 @@ from bayesbeam.report.quicklook import save_quicklook
 
 HELP = ("validate a recording; print what it read (beam, tip body, excitation, sensors, sampling) and what "
         "it finds (force pulses, noise floors, spectral peaks against the nominal modes, mains lines, "
-        "clipping, a suggested --max-frequency and window); write OUT/check.json and OUT/quicklook.png")
+        "clipping, a suggested --max-frequency and window, each channel's unit judged against the nominal beam); "
+        "write OUT/check.json and OUT/quicklook.png")
 
 
 def add_arguments(p) -> None:
@@ -34,5 +36,7 @@ def run(args) -> int:
     json_path = write_json(summary, out / "check.json")
     png_path = save_quicklook(rec, found, out / "quicklook.png")
     print("\n".join(report_lines(found.summary)))
+    for finding in found.summary["units"]["findings"]:
+        print(f"bayesbeam check: warning: units: {finding}", file=sys.stderr)
     print(f"wrote {json_path}\nwrote {png_path}")
     return 0
