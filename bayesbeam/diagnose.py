@@ -60,7 +60,7 @@ from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locat
 from bayesbeam.checks.signatures import rank_effects
 from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
 from bayesbeam.compare import summarise as summarise_comparison
-from bayesbeam.inference.priors import SENSOR_MASS_SIGMA, default_priors, stated_sensor_mass
+from bayesbeam.inference.priors import SENSOR_MASS_SIGMA, default_priors, stated_sensor_masses
 from bayesbeam.model import BeamModel, join_model, resolve_model
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
@@ -230,7 +230,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         best = max(winners, key=lambda t: t.log_bayes_factor)
         best.added = True
         current, mismatch = best.result, best.mismatch
-        say(f"added {best.effect}: ln B = {best.log_bayes_factor:.1f} +- {best.log_bayes_factor_sd:.1f}, "
+        say(f"added {label(best.effect, effect_parameters(best), rec)}: ln B = {best.log_bayes_factor:.1f} +- {best.log_bayes_factor_sd:.1f}, "
             f"RMS standardized residual {mismatch.rms_standardized_residual:.2f}")
     recheck = None
     added = tuple(t.effect for t in trials if t.added)
@@ -385,8 +385,9 @@ def _recheck_start(damping, current) -> dict:
 
 
 def _probe_values(current, candidate) -> dict:
-    """The current model's optimum with the candidate's screened value (None: left to its prior)."""
-    known = _optimum_values(current)
+    """The current model's optimum with the candidate's screened value (None: left to its prior) and
+    the effect's other parameters where the screen held them (the other sensors' stated masses)."""
+    known = {**getattr(candidate, "others", {}), **_optimum_values(current)}
     return known if candidate.value is None else {**known, candidate.parameter: candidate.value}
 
 
@@ -425,11 +426,22 @@ def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False) -
     evidence for one of them. Their signature screen is linearised about zero, and at realistic
     sizes they are far from linear (10 % of the response's RMS of tip friction more than doubles
     mode 1's damping): the screen can miss them, so the decay shape adds them.
+
+    The screen ranks a sensor's mass per sensor, but fitting ``sensor_mass`` fits every sensor's
+    mass (:mod:`bayesbeam.physics.effects.sensor_mass`), so an effect is fitted once, with its
+    best-ranked candidate's value as a start.
     """
-    supported = [c for c in ranking.candidates if c.supported]
-    chosen = supported[:n] or (list(ranking.candidates) if free_decay else ranking.candidates[:1])
+    ranked = _first_per_effect(ranking.candidates)
+    supported = [c for c in ranked if c.supported]
+    chosen = supported[:n] or (ranked if free_decay else ranked[:1])
     shapes = amplitude_dependence(mismatch) | input_shift(mismatch)
-    return chosen + [c for c in ranking.candidates if c.effect in shapes and c not in chosen]
+    return chosen + [c for c in ranked if c.effect in shapes and c not in chosen]
+
+
+def _first_per_effect(candidates) -> list:
+    """The candidates in ranking order, each effect once (its best-ranked sensor's, for a sensor mass)."""
+    seen = set()
+    return [c for c in candidates if not (c.effect in seen or seen.add(c.effect))]
 
 
 def input_shift(mismatch: Mismatch) -> set[str]:
@@ -533,6 +545,7 @@ def summarise(d: Diagnosis) -> dict:
         "mismatch": d.baseline_mismatch.regions,
         "candidates": candidates,
         "added": d.added,
+        "added_labels": [c["label"] for c in candidates if c["added"]],
         "stand_ins": [c["effect"] for c in candidates if c["added"] and c["stand_in"]] + list(given),
         "given_stand_ins": given,
         "unexplained": d.unexplained,
@@ -581,6 +594,23 @@ def _own_parameters(result, effect_name: str) -> dict:
     return {k: v for k, v in posterior_summary(result).items() if k in effect.parameters}
 
 
+def mass_sensor(parameters: dict, rec) -> str | None:
+    """Which sensor carries the mass a fitted ``sensor_mass`` found: the one whose posterior median
+    mass (``parameters``: the effect's :func:`effect_parameters`) exceeds what beam.toml states on
+    it (0 where nothing is stated) the most; None without such parameters."""
+    stated = stated_sensor_masses(rec.setup)
+    sensors = dict(zip(stated, (s.name for s in rec.sensors)))
+    excess = {sensors[p]: q["q50"] - (stated[p] or 0.0) for p, q in parameters.items() if p in sensors}
+    return max(excess, key=excess.get) if excess else None
+
+
+def label(effect: str, parameters: dict, rec) -> str:
+    """An added effect in words: its name, and for a sensor mass on a recording of several sensors
+    where it sits ('sensor_mass at mid')."""
+    sensor = mass_sensor(parameters, rec) if effect == "sensor_mass" and len(rec.sensors) > 1 else None
+    return effect if sensor is None else f"{effect} at {sensor}"
+
+
 def given_stand_ins(d: Diagnosis) -> dict[str, dict]:
     """The stand-in verdicts (:func:`stand_in`) of the effects the user gave with the baseline
     (``effects=``, ``--effect``), judged on the final model's posterior: a given effect is bounded
@@ -596,10 +626,10 @@ def allowed_by_setup(effect: str, rec) -> dict[str, tuple[float, float]]:
     """Per parameter of ``effect``, the range (SI units) the recording's stated set-up allows it;
     empty where the set-up bounds nothing. See :func:`stand_in` for the rule and its reasons."""
     setup = rec.setup
-    mass = stated_sensor_mass(setup)
-    if effect == "sensor_mass" and mass is not None:
+    if effect == "sensor_mass":
         spread = float(np.exp(STAND_IN_SDS * SENSOR_MASS_SIGMA))
-        return {"m_s": (mass / spread, mass * spread)}
+        return {name: (mass / spread, mass * spread) for name, mass in stated_sensor_masses(setup).items()
+                if mass is not None}
     if effect == "axial_load":
         weight = GRAVITY * (rec.beam.rho_a * (rec.beam.length + setup.length_tolerance) + rec.tip.mass
                             + setup.tip_mass_tolerance + setup.stated_mass)
@@ -614,8 +644,8 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
 
     The rule, per effect (others have no set-up bound and are never stand-ins):
 
-    * ``sensor_mass`` when the first sensor, where m_s sits, states its own mass m: the median of
-      m_s lies more than :data:`STAND_IN_SDS` = 3 prior sds of log m_s
+    * ``sensor_mass``, per sensor that states its own mass m: the median of its fitted mass (m_s,
+      or m_s_<s> among several sensors) lies more than :data:`STAND_IN_SDS` = 3 prior sds of log m_s
       (:data:`~bayesbeam.inference.priors.SENSOR_MASS_SIGMA`) from m, outside m / 2.46 to
       2.46 m. That prior already allows for the mounting, the cable and a sensor that is not a
       point; three sds beyond it the fitted "mass" is not the sensor's. (A stated mass of 0, a
@@ -629,10 +659,12 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
       can hold; it stands in for whatever shifts the modes in a geometric stiffness's proportions.
     """
     for name, (low, high) in allowed_by_setup(effect, rec).items():
+        if name not in parameters:
+            continue
         median = parameters[name]["q50"]
         if not low <= median <= high:
             why = (f"more than {STAND_IN_SDS:g} prior sds of log m_s from the stated sensor mass "
-                   f"{stated_sensor_mass(rec.setup):.4g} kg" if name == "m_s" else
+                   f"{stated_sensor_masses(rec.setup)[name]:.4g} kg" if effect == "sensor_mass" else
                    "beyond the weight of beam, tip body and stated sensors, the largest axial force a "
                    "cantilever with a free tip carries")
             return {"parameter": name, "median": median, "allowed": [low, high], "unit": parameters[name]["unit"],
@@ -642,7 +674,10 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
 
 def _trial_entry(t: Trial, signature) -> dict:
     parameters = effect_parameters(t)
-    return {"effect": t.effect, "round": t.round, "model": t.result.name,
+    rec = t.result.problem.model.recording
+    sensor = mass_sensor(parameters, rec) if t.effect == "sensor_mass" else None
+    return {"effect": t.effect, "sensor": sensor, "label": label(t.effect, parameters, rec),
+            "round": t.round, "model": t.result.name,
             "delta_log_evidence": t.log_bayes_factor, "delta_log_evidence_sd": t.log_bayes_factor_sd,
             "parameters": parameters, "stand_in": stand_in(t.effect, parameters, t.result.problem.model.recording),
             "rms_standardized_residual": t.mismatch.rms_standardized_residual, "flags": flags(t.mismatch),
@@ -674,10 +709,11 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
         params = _estimates(summary)
         verdict = ("added, then dropped after the damping re-check" if t.dropped else
                    "added" if t.added else "not added: " + _refusal(t, d.trials))
-        text.append(f"Round {t.round}, {t.effect}: log Bayes factor {t.log_bayes_factor:.1f} +- "
+        text.append(f"Round {t.round}, {label(t.effect, summary, rec)}: log Bayes factor {t.log_bayes_factor:.1f} +- "
                     f"{t.log_bayes_factor_sd:.2g} nats against {d.chain()[t.round - 1][0].name}, RMS standardized residual "
                     f"{t.mismatch.rms_standardized_residual:.2f}, {flags(t.mismatch)} flag(s); {params}: {verdict}.")
-    found = [t.effect for t, verdict in zip(d.trials, verdicts) if t.effect in d.added and not verdict]
+    found = [label(t.effect, summary, rec) for t, summary, verdict in zip(d.trials, parameters, verdicts)
+             if t.effect in d.added and not verdict]
     if d.added:
         text.append(("Missing physics found: " + " and ".join(found) if found else
                      "No missing physics the set-up allows was found") + ". The fit improved from RMS "

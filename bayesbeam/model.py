@@ -8,8 +8,10 @@
 Parameters use the paper's names in SI units: EI (N m^2) and those of each mechanism
 (gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, r s, a N s, b m). A free length that
 beam.toml states with a tolerance adds l (m, :meth:`BeamModel.operators`), a sensor location
-stated with a tolerance the sensor's offset dx_<sensor> (m, :meth:`BeamModel.placement`), to
-every model.
+stated with a tolerance the sensor's offset dx_<sensor> (m, :meth:`BeamModel.placement`), and the
+hammer's location stated with a tolerance its offset dx_hammer (m), to every model. A sensor's own
+mass stated in beam.toml is a known point mass at that sensor in every model
+(:meth:`BeamModel.carried_mass`).
 """
 from __future__ import annotations
 
@@ -44,11 +46,14 @@ PARAMETER_UNITS = {"EI": "N m^2"}
 #: the name of the fitted offset of sensor <s> from its stated location (m), a parameter of every
 #: model when beam.toml states the sensor's ``location_tolerance`` (see :meth:`BeamModel.placement`)
 SENSOR_OFFSET = "dx_{}"
+#: the name of the hammer's fitted offset from its stated location (m), a parameter of every model
+#: of a force recording when beam.toml states ``[excitation] location_tolerance``
+HAMMER_OFFSET = "dx_hammer"
 #: the name of the fitted free length (m), a parameter of every model when beam.toml states
 #: ``[beam] length_tolerance`` (see :meth:`BeamModel.operators`)
 LENGTH = "l"
 #: the set-up's fitted tolerances as ``bayesbeam models`` lists them, with their units
-SETUP_PARAMETER_UNITS = {LENGTH: "m", SENSOR_OFFSET.format("<s>"): "m"}
+SETUP_PARAMETER_UNITS = {LENGTH: "m", SENSOR_OFFSET.format("<s>"): "m", HAMMER_OFFSET: "m"}
 #: reference beams whose modes a model keeps (see :meth:`BeamModel._reference`): a sampler's
 #: cloud spans a few grid points, an optimiser's path some more; 32 at N = 48 hold 2.5 MB
 REFERENCES_KEPT = 32
@@ -127,6 +132,11 @@ def _fitted_offsets(recording: Recording) -> dict[str, int]:
             if tol > 0}
 
 
+def _stated_masses(recording: Recording) -> dict[int, float]:
+    """{sensor index: mass (kg)} of the sensors whose own mass beam.toml states (> 0)."""
+    return {i: m for i, m in enumerate(recording.setup.sensor_masses) if m}
+
+
 def _differ(a: np.ndarray | None, b: np.ndarray | None) -> bool:
     """Whether two optional matrices differ (None and None do not)."""
     return (a is None) != (b is None) or (a is not None and not np.array_equal(a, b))
@@ -173,6 +183,8 @@ class BeamModel:
         self.rows = self.ops.rows([s.location for s in recording.sensors])
         self.offsets = _fitted_offsets(recording)
         self.fits_length = recording.setup.length_tolerance > 0
+        self.fits_hammer = exc.kind == "force" and recording.setup.excitation_location_tolerance > 0
+        self.stated_masses = _stated_masses(recording)
         self._stretched: tuple[float, BeamOperators] | None = None    # the last length's operators
         self.orders = np.array([ORDERS[s.quantity] for s in recording.sensors])
         _check_nonlinear(self)
@@ -200,12 +212,14 @@ class BeamModel:
     @cached_property
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the free parameters, in order: EI, each mechanism's, each effect's, then the
-        free length ``l`` when beam.toml states its tolerance, and the offset ``dx_<s>`` of each
-        sensor whose location it states with a tolerance."""
+        free length ``l`` when beam.toml states its tolerance, the offset ``dx_<s>`` of each
+        sensor whose location it states with a tolerance, and the hammer's ``dx_hammer`` when it
+        states the hammer's."""
         names = ["EI"]
         for c in self.components:
             names += [p for p in c.parameters if p not in c.defaults]
-        return tuple(names) + ((LENGTH,) if self.fits_length else ()) + tuple(self.offsets)
+        return (tuple(names) + ((LENGTH,) if self.fits_length else ()) + tuple(self.offsets)
+                + ((HAMMER_OFFSET,) if self.fits_hammer else ()))
 
     @cached_property
     def units(self) -> dict[str, str]:
@@ -213,8 +227,8 @@ class BeamModel:
         for c in self.components:
             out.update(c.units)
         out.update(dict.fromkeys(self.offsets, "m"))
-        if self.fits_length:
-            out[LENGTH] = "m"
+        out.update({name: "m" for name, fitted in ((LENGTH, self.fits_length), (HAMMER_OFFSET, self.fits_hammer))
+                    if fitted})
         return out
 
     def values(self, params: Mapping[str, float] | Sequence[float]) -> dict[str, float]:
@@ -243,9 +257,9 @@ class BeamModel:
         return out
 
     def _check_positions(self, v: dict[str, float]) -> None:
-        """ValueError when the fitted length or a fitted sensor offset puts a sensor or the
-        hammer off the beam."""
-        if not (self.offsets or self.fits_length):
+        """ValueError when the fitted length or a fitted sensor or hammer offset puts a sensor or
+        the hammer off the beam."""
+        if not self._moves:
             return
         if self.fits_length and not (np.isfinite(v[LENGTH]) and v[LENGTH] > 0):
             raise ValueError(f"{LENGTH} = {v[LENGTH]!r} m is not physical (must be finite and > 0)")
@@ -253,10 +267,20 @@ class BeamModel:
         placed = [(f"sensor {s.name!r}", x) for s, x in zip(self.recording.sensors, setup.sensor_locations)]
         if setup.force_location is not None:
             placed.append(("the hammer", setup.force_location))
-        fitted = ", ".join(f"{n} = {v[n]!r} m" for n in ([LENGTH] if self.fits_length else []) + list(self.offsets))
+        fitted = ", ".join(f"{n} = {v[n]!r} m" for n in self.parameter_names[-self._n_placing:])
         for what, x in placed:
             if not (np.isfinite(x) and 0.0 <= x <= length):
                 raise ValueError(f"{fitted} put {what} at {x!r} m, off the beam [0, {length!r}] m")
+
+    @property
+    def _moves(self) -> bool:
+        """Whether some fitted parameter moves a sensor or the hammer (a length, an offset)."""
+        return bool(self.offsets or self.fits_length or self.fits_hammer)
+
+    @property
+    def _n_placing(self) -> int:
+        """How many of the last :attr:`parameter_names` place the beam, the sensors and the hammer."""
+        return int(self.fits_length) + len(self.offsets) + int(self.fits_hammer)
 
     def _length(self, v: dict[str, float]) -> float:
         """The free length at these values (m): the fitted ``l``, else the stated one."""
@@ -282,36 +306,41 @@ class BeamModel:
     def placement(self, v: dict[str, float]) -> tuple[np.ndarray, Setup]:
         """(point rows of the sensors, the :class:`Setup` the effects see) at values checked by
         :meth:`values`: the sensors sit at their stated locations plus the fitted offsets
-        ``dx_<s>``, and an effect placed at a sensor (the sensor's own mass) moves with it.
+        ``dx_<s>``, the hammer at its stated location plus ``dx_hammer``, and a mass placed at a
+        sensor (the sensor's own mass, stated or fitted) moves with it.
 
         With a fitted free length l, the clamp is taken to grip an uncertain length of the bar:
         every sensor and the hammer keep their stated distance from the free end (each moves by
         l - l_stated from the clamp), so a sensor stated at the tip stays at the tip.
 
         Without fitted offsets or length both are the model's own, built once (:attr:`rows`,
-        :attr:`setup`).
+        :attr:`setup`); a fitted hammer offset alone leaves the sensors' rows as they are.
         """
-        if not (self.offsets or self.fits_length):
+        if not self._moves:
             return self.rows, self.setup
         setup = self._setup_at(v)
+        if not (self.offsets or self.fits_length):
+            return self.rows, setup
         return self.operators(v).rows(setup.sensor_locations), setup
 
     def _setup_at(self, v: dict[str, float]) -> Setup:
         """The :class:`Setup` of :meth:`placement` alone (no rows evaluated)."""
-        if not (self.offsets or self.fits_length):
+        if not self._moves:
             return self.setup
         shift = self._length(v) - self.ops.length
         locations = [x + shift for x in self.setup.sensor_locations]
         for name, index in self.offsets.items():
             locations[index] += v[name]
         force = self.setup.force_location
-        return Setup(tuple(locations), None if force is None else force + shift)
+        if force is not None:
+            force += shift + (v[HAMMER_OFFSET] if self.fits_hammer else 0.0)
+        return Setup(tuple(locations), force)
 
     def load_at(self, v: dict[str, float]) -> np.ndarray | None:
         """The load vector at values checked by :meth:`values`: the hammer's point row (where
         :meth:`placement` puts it) or the tip row of a release; the model's own (:attr:`load`)
-        at the stated length."""
-        if not self.fits_length or self.load is None:
+        at the stated length and hammer location."""
+        if not (self.fits_length or self.fits_hammer) or self.load is None:
             return self.load
         ops, exc = self.operators(v), self.recording.excitation
         return ops.rows([self._setup_at(v).force_location])[0] if exc.kind == "force" else ops.tip_value
@@ -362,15 +391,32 @@ class BeamModel:
         Without added mass or stiffness (none, or zero at these values) M is parameter-free and
         K = EI K0, whose modes are (EI omega_0^2, Phi_0) of (K0, M): computed once per model,
         not once per call, and the same for a model with a vanishing effect as without it. With
-        a fitted length M and K change with l, and the system finds their modes on each call.
+        a fitted length M and K change with l, and with a stated sensor mass at a fitted sensor
+        position M changes with it: the system finds their modes on each call.
         """
-        ops = self.operators(v)
-        mass, stiffness, added = self._with_effects([v] * len(self.effects), ops.M, v["EI"] * ops.K0,
-                                                    self._setup_at(v), ops)
-        if added or self.fits_length:
+        ops, setup = self.operators(v), self._setup_at(v)
+        mass, stiffness, added = self._with_effects([v] * len(self.effects), self.carried_mass(ops, setup),
+                                                    v["EI"] * ops.K0, setup, ops)
+        if added or self.fits_length or self._mass_follows_sensors:
             return mass, stiffness, None
         lam0, phi0 = self._unit_modes
         return mass, stiffness, (v["EI"] * lam0, phi0)
+
+    def carried_mass(self, ops: BeamOperators, setup: Setup) -> np.ndarray:
+        """The mass matrix every model carries: the beam's and the tip body's (``ops.M``) plus the
+        masses beam.toml states on the sensors, a point mass m_j r_j r_j^T at each sensor's
+        placement in ``setup`` (kg in generalised coordinates). Without stated masses it is
+        ``ops.M`` itself. The ``sensor_mass`` effect replaces these by its fitted masses (it adds
+        their differences, :mod:`bayesbeam.physics.effects.sensor_mass`)."""
+        mass = ops.M
+        for index, m in self.stated_masses.items():
+            mass = mass + m * ops.point_matrix(setup.sensor_locations[index])
+        return mass
+
+    @cached_property
+    def _mass_follows_sensors(self) -> bool:
+        """Whether a stated sensor mass sits at a sensor whose position is fitted (an offset)."""
+        return any(SENSOR_OFFSET.format(self.recording.sensors[i].name) in self.offsets for i in self.stated_masses)
 
     def _with_effects(self, points, mass: np.ndarray, stiffness: np.ndarray, setup: Setup, ops: BeamOperators):
         """``mass`` and ``stiffness`` plus each effect's added matrices at its values in ``points``
@@ -396,14 +442,15 @@ class BeamModel:
         a combination of M_0 and K_0 (then the bare modes do not diagonalise it), when nothing
         departs, when the rank exceeds what the ``low_rank`` form takes (an axial load's
         geometric stiffness has full rank), when an effect's matrices move with a fitted sensor
-        position (the sensor's own mass): then the directions change with the parameters, or when
-        the length is fitted: the reference beam's modes would change with it.
+        position (the sensor's own mass), or a stated sensor mass does: then the directions change
+        with the parameters, or when the length is fitted: the reference beam's modes would change
+        with it.
         """
         if (not all(m.bare_modal for m in self.mechanisms) or self.fits_length
-                or self._effects_follow_sensors):
+                or self._effects_follow_sensors or self._mass_follows_sensors):
             return None
-        ops, unit = self.ops, {p: 1.0 for e in self.effects for p in e.parameters}
-        blocks = [ops.M - ops.rho_a * ops.M0]
+        ops, unit = self.ops, self._unit_values
+        blocks = [self.carried_mass(ops, self.setup) - ops.rho_a * ops.M0]
         for e in self.effects:
             blocks += [b for b in (e.mass(ops, unit, self.setup), e.stiffness(ops, unit, self.setup),
                                    e.damping(ops, unit, self.setup)) if b is not None]
@@ -420,13 +467,20 @@ class BeamModel:
             return False
         tolerances = self.recording.setup.location_tolerances
         half_span = 0.5 * self.ops.length
-        moved = self._setup_at({LENGTH: self.ops.length,
+        moved = self._setup_at({LENGTH: self.ops.length, HAMMER_OFFSET: 0.0,
                                 **{name: np.copysign(0.5 * min(tolerances[i], half_span),
                                                      half_span - self.setup.sensor_locations[i])
                                    for name, i in self.offsets.items()}})
-        unit = {p: 1.0 for e in self.effects for p in e.parameters}
+        unit = self._unit_values
         return any(_differ(form(self.ops, unit, self.setup), form(self.ops, unit, moved))
                    for e in self.effects for form in (e.mass, e.stiffness, e.damping))
+
+    @cached_property
+    def _unit_values(self) -> dict[str, float]:
+        """Each effect's parameters one unit away from where the effect vanishes (1 where it
+        vanishes at 0 or only in a limit), at which its matrices show their directions."""
+        absent = {p: a for e in self.effects for p, a in e.absent.items() if np.isfinite(a)}
+        return {p: 1.0 + absent.get(p, 0.0) for e in self.effects for p in e.parameters}
 
     def _reference(self, v: dict[str, float]) -> ReferencePair:
         """The reference beam (M_r, EI K_1) near these values that the effects depart from along
@@ -438,7 +492,7 @@ class BeamModel:
         key = tuple(sorted(item for p in points for item in p.items()))
         cached = self._references.pop(key, None)
         if cached is None:
-            m_r, k_1, _ = self._with_effects(points, self.ops.M, self.ops.K0, self.setup, self.ops)
+            m_r, k_1, _ = self._with_effects(points, self._carried, self.ops.K0, self.setup, self.ops)
             cached = (m_r, k_1, *undamped_modes(k_1, m_r))
             if len(self._references) >= REFERENCES_KEPT:
                 del self._references[next(iter(self._references))]     # the least recently used
@@ -448,8 +502,13 @@ class BeamModel:
 
     @cached_property
     def _unit_modes(self) -> tuple[np.ndarray, np.ndarray]:
-        """Undamped modes of (K0, M): omega^2 per unit EI and Phi."""
-        return undamped_modes(self.ops.K0, self.ops.M)
+        """Undamped modes of (K0, M): omega^2 per unit EI and Phi, M with the stated sensor masses."""
+        return undamped_modes(self.ops.K0, self._carried)
+
+    @cached_property
+    def _carried(self) -> np.ndarray:
+        """:meth:`carried_mass` with every sensor at its stated location."""
+        return self.carried_mass(self.ops, self.setup)
 
     def poles(self, params) -> np.ndarray:
         """Oscillatory poles (rad/s), Im > 0, sorted by natural frequency."""

@@ -111,6 +111,23 @@ def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["quadratic_drag", "dry_friction"]
 
 
+def test_a_sensor_mass_ranked_at_two_sensors_is_fitted_once_from_the_best_ranked():
+    """The screen ranks a mass per sensor; fitting sensor_mass fits every sensor's, so it is one
+    augmented model, started from the best-ranked sensor's value and the others' stated masses."""
+    from bayesbeam.diagnose import _candidates, _probe_values
+
+    mid = SimpleNamespace(effect="sensor_mass", supported=True, parameter="m_s_mid", value=0.005,
+                          others={"m_s_tip": 0.004})
+    tip = SimpleNamespace(effect="sensor_mass", supported=True, parameter="m_s_tip", value=0.009,
+                          others={"m_s_mid": 1e-5})
+    ranking = SimpleNamespace(candidates=[mid, tip, SimpleNamespace(effect="axial_load", supported=True)])
+    plain = SimpleNamespace(phase={}, modes=[_mode(0.01, 0.3)])
+    assert _candidates(ranking, plain, 2) == [mid, ranking.candidates[2]]
+    current = SimpleNamespace(problem=SimpleNamespace(posterior=SimpleNamespace(
+        split=lambda theta: ({"EI": 3.9}, None), model_names=("EI",))), optimum=SimpleNamespace(theta=None))
+    assert _probe_values(current, mid) == {"EI": 3.9, "m_s_tip": 0.004, "m_s_mid": 0.005}
+
+
 def test_a_latent_force_beyond_the_force_noise_puts_a_delay_among_the_fitted_candidates():
     """A delay is absorbed by the force-noise latent terms (a shifted force), where the signature
     screen cannot see it: the latent force's flag adds measurement_delay to what is fitted."""

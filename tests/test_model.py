@@ -287,3 +287,80 @@ def test_quintic_splines_reach_the_in_band_response_with_fewer_degrees_of_freedo
     error = [np.linalg.norm(project(m.simulate(params)) - reference) / np.linalg.norm(reference)
              for m in (quintic, cubic)]
     assert error[0] < 1e-3 and error[1] > 0.1, error
+
+
+# ---------------------------------------------------------------------------- stated sensor masses, the hammer's offset
+def _two_sensors(masses=None, hammer_tolerance=None, location=0.75):
+    """The paper beam struck at ``location`` with a tip and a mid-span accelerometer (s0, s1) and
+    their stated masses (None: not stated), 0.5 s at 512 Hz."""
+    from tests.physics.effects.helpers import recording
+
+    rec = recording(fs=512.0, duration=0.5, sensors=((1.0, "acceleration"), (0.5, "acceleration")),
+                    location=location)
+    keys = {}
+    if masses is not None:
+        keys["sensor"] = [{} if m is None else {"mass": m} for m in masses]
+    if hammer_tolerance is not None:
+        keys["excitation"] = {"location_tolerance": hammer_tolerance}
+    return replace(rec, setup_keys=keys)
+
+
+Q1 = {"EI": 44.28, "gamma": 0.3, "cdI": 7e-5}
+
+
+@pytest.mark.parametrize("spec", ["q1", "q2", "q1+root_compliance"])
+def test_a_stated_sensor_mass_is_in_every_models_mass_matrix(spec):
+    """6 g stated on the mid-span sensor: M = rho A M0 (+ tip) + 0.006 r r^T at 0.5 m, exactly (the
+    same sum), in a model without the sensor_mass effect; nothing stated: M is the beam's own."""
+    params = {**Q1, "alpha": 2.0, "beta": 200.0, "k_theta": 3000.0}
+    stated = BeamModel(_two_sensors([None, 0.006]), spec, 8)
+    values = stated.values({n: params[n] for n in stated.parameter_names})
+    assert np.array_equal(stated.system(values).M, stated.ops.M + 0.006 * stated.ops.point_matrix(0.5))
+    plain = BeamModel(_two_sensors(), spec, 8)
+    assert plain.carried_mass(plain.ops, plain.setup) is plain.ops.M
+    assert plain.system(values).M is plain.ops.M
+
+
+@pytest.mark.parametrize("spec", ["q1", "q1+root_compliance", "q2"])
+def test_cached_modes_include_the_stated_mass(spec):
+    """The modes a model caches (its own, or a low_rank reference beam's) hold the stated mass: the
+    transfer function equals the one of the same M, D, K solved from scratch (no cached modes, no
+    reference, no departures) to 1e-10 of max |H| (two exact forms, as in test_system.py; measured
+    ~1e-12). Without the mass in the cache the 6 g at mid-span would move mode 2 by 0.2 % and
+    the peaks by far more than that."""
+    import dataclasses
+
+    model = BeamModel(_two_sensors([None, 0.006]), spec, 12)
+    params = {**Q1, "alpha": 2.0, "beta": 200.0, "k_theta": 3000.0}
+    system = model.system({n: params[n] for n in model.parameter_names})
+    assert system.modes is not None or system.reference is not None
+    scratch = dataclasses.replace(system, modes=None, reference=None, departures=None)
+    s = model.grid.s[: model.grid.s.size // 2]
+    h = system.transfer(s, model.rows, model.load[:, None])
+    expected = scratch.transfer(s, model.rows, model.load[:, None])
+    assert np.max(np.abs(h - expected)) / np.max(np.abs(expected)) < 1e-10
+
+
+def test_the_hammers_offset_moves_the_load():
+    """[excitation] location_tolerance = 10 mm: dx_hammer is the last parameter (m), and simulate at
+    dx_hammer = -7 mm equals the model of the recording that states the hammer 7 mm nearer the
+    clamp: the same rows and solver, round-off alone (1e-12 of each channel's peak, observed 0).
+    The offset matters: the stated location's response differs by more than 1e-3 of the peak."""
+    fitted = BeamModel(_two_sensors(hammer_tolerance=0.01), "q1", 8)
+    moved = BeamModel(_two_sensors(location=0.75 - 0.007), "q1", 8)
+    assert fitted.parameter_names == ("EI", "gamma", "cdI", "dx_hammer") and fitted.units["dx_hammer"] == "m"
+    y_fit, y_moved = fitted.simulate({**Q1, "dx_hammer": -0.007}), moved.simulate(Q1)
+    scale = np.abs(y_moved).max(axis=0)
+    assert np.all(np.abs(y_fit - y_moved).max(axis=0) <= 1e-12 * scale)
+    assert np.abs(fitted.simulate({**Q1, "dx_hammer": 0.0}) - y_moved).max() > 1e-3 * scale.max()
+    with pytest.raises(ValueError, match="dx_hammer = 0.3 m put the hammer at 1.05 m, off the beam"):
+        fitted.values({**Q1, "dx_hammer": 0.3})
+
+
+def test_without_a_hammer_tolerance_the_load_is_the_models_own():
+    """No key, or 0: no dx_hammer, and the stated load row itself (the same path and bits)."""
+    for tolerance in (None, 0.0):
+        model = BeamModel(_two_sensors(hammer_tolerance=tolerance), "q1", 8)
+        assert model.parameter_names == ("EI", "gamma", "cdI")
+        assert model.load_at(model.values(Q1)) is model.load
+        assert model.placement(model.values(Q1))[1] is model.setup

@@ -44,17 +44,17 @@ def summary(name: str, median: float, unit: str) -> dict:
 def test_a_sensor_mass_three_prior_sds_from_the_stated_one_is_a_stand_in(factor, expected):
     """1 % inside the 3-sd factor 2.46 either way is a sensor mass; 1 % beyond it, and the real
     record's 80 g on a 6 g accelerometer, stand in for something else."""
-    verdict = stand_in("sensor_mass", summary("m_s", STATED_MASS * factor, "kg"), recording())
+    verdict = stand_in("sensor_mass", summary("m_s_accel_tip", STATED_MASS * factor, "kg"), recording())
     assert (verdict is not None) == expected
     if expected:
-        assert verdict["parameter"] == "m_s" and verdict["median"] == pytest.approx(STATED_MASS * factor)
+        assert verdict["parameter"] == "m_s_accel_tip" and verdict["median"] == pytest.approx(STATED_MASS * factor)
         assert verdict["allowed"] == pytest.approx([STATED_MASS / SPREAD, STATED_MASS * SPREAD], rel=1e-12)
 
 
 def test_without_a_stated_mass_no_sensor_mass_is_a_stand_in():
-    """Nothing stated on the first sensor (where m_s sits): the set-up bounds nothing."""
+    """Nothing stated on the tip sensor (where m_s_accel_tip sits): the set-up bounds nothing."""
     unstated = {**SETUP, "sensor": [{}, {"mass": 0.004}]}
-    assert stand_in("sensor_mass", summary("m_s", 0.080, "kg"), recording(unstated)) is None
+    assert stand_in("sensor_mass", summary("m_s_accel_tip", 0.080, "kg"), recording(unstated)) is None
 
 
 @pytest.mark.parametrize(("load", "expected"), [(22.0, True), (0.99 * WEIGHT, False), (-0.99 * WEIGHT, False),
@@ -80,9 +80,9 @@ def _map(rms):
 
 def _result(name, log_z, rec, effect=None, median=None):
     """A fitted model: 2 SMC repeats x 50 draws of its effect's parameter about ``median``."""
-    parameters = () if effect is None else {"sensor_mass": ("m_s",), "root_compliance": ("k_theta",)}[effect]
+    parameters = () if effect is None else {"sensor_mass": ("m_s_accel_tip",), "root_compliance": ("k_theta",)}[effect]
     draws = median * np.exp(0.01 * np.random.default_rng(0).standard_normal((2, 50, 1))) if effect else None
-    model = SimpleNamespace(recording=rec, units={"m_s": "kg", "k_theta": "N m/rad"},
+    model = SimpleNamespace(recording=rec, units={"m_s_accel_tip": "kg", "k_theta": "N m/rad"},
                             effects=[SimpleNamespace(name=effect, parameters=parameters)] if effect else [])
     return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=0.1),
                            problem=SimpleNamespace(model=model, posterior=SimpleNamespace(names=parameters)),
@@ -100,10 +100,10 @@ def diagnosis(effect, median):
 def test_a_stand_in_is_marked_in_its_entry_and_named_as_such_in_the_summary():
     d = diagnosis("sensor_mass", 0.080)
     entry = _trial_entry(d.trials[0], None)
-    assert entry["added"] and entry["stand_in"]["parameter"] == "m_s"
+    assert entry["added"] and entry["stand_in"]["parameter"] == "m_s_accel_tip"
     assert entry["stand_in"]["median"] == pytest.approx(0.080, rel=0.01)   # 100 draws of sd(log) 0.01
     text = paragraph(d, [entry["parameters"]])
-    assert "Stand-in, not a finding: sensor_mass's m_s" in text
+    assert "Stand-in, not a finding: sensor_mass's m_s_accel_tip" in text
     assert "a structural mismatch the catalogue cannot name" in text
     assert "Missing physics found" not in text and "No missing physics the set-up allows was found" in text
 
@@ -113,11 +113,11 @@ def test_an_effect_within_the_set_up_is_a_finding():
     entry = _trial_entry(d.trials[0], None)
     assert entry["stand_in"] is None
     text = paragraph(d, [entry["parameters"]])
-    assert "Missing physics found: sensor_mass." in text and "Stand-in" not in text
+    assert "Missing physics found: sensor_mass at accel_tip." in text and "Stand-in" not in text
 
 
 @pytest.mark.parametrize(("median", "words", "not_words"), [
-    (0.080, "Not a finding: sensor_mass stands in for a structural mismatch", "left out of this recording"),
+    (0.080, "Not a finding: sensor_mass at accel_tip stands in for a structural mismatch", "left out of this recording"),
     (0.0065, "What the damping model q1 left out of this recording: point mass", "Not a finding")])
 def test_the_reports_lead_keeps_a_stand_in_apart_from_the_findings(median, words, not_words):
     from bayesbeam.report.diagnosis import lead
@@ -150,7 +150,7 @@ def test_an_effect_given_with_the_baseline_is_judged_by_the_same_rule(median, ex
     verdicts = given_stand_ins(d)
     assert ("sensor_mass" in verdicts) == expected
     text = paragraph(d, [])
-    assert ("Stand-in, not a finding: sensor_mass's m_s" in text) == expected
+    assert ("Stand-in, not a finding: sensor_mass's m_s_accel_tip" in text) == expected
     model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 100.0}
     summary = {"baseline": {**model, "model": "q1+sensor_mass"}, "unexplained": False, "candidates": [],
                "final": {**model, "model": "q1+sensor_mass"}, "given_stand_ins": verdicts}

@@ -35,6 +35,11 @@ a trust-region least squares with the Jacobian held at :math:`WN` (at most
 a grid searched before re-adjusting sizes a root spring, a sensor mass and tip friction 3 to 5.5
 times off on the test recordings.
 
+Per sensor. The ``sensor_mass`` effect holds a mass per sensor (m_s_<s> when there are several):
+each is a candidate of its own, "sensor_mass at <s>", its signature that sensor's mass moved from
+its stated value (0 where none is stated) with every other sensor's mass as stated. So the screen
+says at which sensor a mass is missing, whatever order the ``[[sensor]]`` tables list them in.
+
 One-parameter least squares, physically admissible sign and range (the default prior's support,
 both signs only for the axial load):
 
@@ -107,7 +112,7 @@ PHYSICS = {
     "root_compliance": "a rotational spring at the clamp lowers every mode by nearly the same fraction to first "
                        "order (d ln f/d(1/k_theta) = -2 EI/l), which a lower EI mimics; what gives it away is the "
                        "extra drop of the low modes at second order and the changed mode shapes (amplitudes)",
-    "sensor_mass": "a point mass at the first sensor lowers mode m by about m_s phi_m(x_s)^2 / 2 (mass-normalised "
+    "sensor_mass": "a point mass at a sensor lowers mode m by about m_s phi_m(x_s)^2 / 2 (mass-normalised "
                    "shape): the pattern follows the mode shapes at the sensor (at a cantilever's tip it is the "
                    "same for every mode, like EI) and the amplitudes there change",
     "axial_load": "an axial force adds geometric stiffness P int u_x^2: the relative shift falls about as "
@@ -144,11 +149,20 @@ class Candidate:
     predicted: dict                 # feature -> predicted change after the baseline re-adjusts
     frequency_shift_pct: list       # the effect's own shift of each mode at the value (before EI re-adjusts)
     reasoning: str = ""
+    sensor: str | None = None       # the sensor whose mass the candidate moves (sensor_mass), else None
+    #: the effect's other parameters where a fit of it may start (the other sensors' stated masses,
+    #: within their priors)
+    others: dict = field(default_factory=dict)
+
+    @property
+    def label(self) -> str:
+        """The candidate in words: the effect, and for a sensor's mass which sensor ('sensor_mass at mid')."""
+        return self.effect if self.sensor is None else f"{self.effect} at {self.sensor}"
 
     def to_dict(self) -> dict:
-        return {k: getattr(self, k) for k in ("effect", "parameter", "unit", "value", "interval_90", "prior",
-                                              "within_prior", "delta_chi2", "explained", "p_value", "supported",
-                                              "frequency_shift_pct", "reasoning")}
+        return {k: getattr(self, k) for k in ("effect", "sensor", "label", "parameter", "unit", "value", "interval_90",
+                                              "prior", "within_prior", "delta_chi2", "explained", "p_value",
+                                              "supported", "frequency_shift_pct", "reasoning")}
 
 
 @dataclass
@@ -184,9 +198,10 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None)
     space = _Space.build(mismatch, base, posterior, theta, base_features)
     dof = space.dof
     p0 = space.p_value(space.chi2_0, dof)
-    level = ALPHA / max(len(augmented), 1)
-    found = [_candidate(name, aug, posterior, theta, base_features, space, mismatch, level)
-             for name, aug in augmented.items()]
+    screened = [(name, aug, p) for name, aug in augmented.items() for p in _screened(aug, name)]
+    level = ALPHA / max(len(screened), 1)
+    found = [_candidate(name, aug, parameter, posterior, theta, base_features, space, mismatch, level)
+             for name, aug, parameter in screened]
     found.sort(key=lambda c: (not c.supported, -c.delta_chi2))
     if len(found) > 1 and found[0].predicted:
         found[0].reasoning += _contrast(found[0], found[1], mismatch)
@@ -320,24 +335,52 @@ def _jacobian(base: _Evaluator, posterior, theta, f0) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- one candidate
-def _candidate(name, aug, posterior, theta, base_features, space, mismatch, level) -> Candidate:
+def _effect(aug: BeamModel, name: str):
+    """The augmented model's effect ``name``, bound to its recording (a mass per sensor)."""
+    return next(e for e in aug.effects if e.name == name)
+
+
+def _screened(aug: BeamModel, name: str) -> tuple[str, ...]:
+    """The parameters of effect ``name`` screened one at a time: every sensor's mass of
+    ``sensor_mass``, the first (only) parameter of any other effect."""
+    parameters = _effect(aug, name).parameters
+    return parameters if name == "sensor_mass" else parameters[:1]
+
+
+def _sensor_of(aug: BeamModel, name: str, parameter: str) -> str | None:
+    """The sensor whose mass ``parameter`` is (``sensor_mass`` on a recording of several sensors),
+    else None."""
+    if name != "sensor_mass" or len(aug.recording.sensors) == 1:
+        return None
+    return aug.recording.sensors[_effect(aug, name).parameters.index(parameter)].name
+
+
+def _candidate(name, aug, parameter, posterior, theta, base_features, space, mismatch, level) -> Candidate:
     model = posterior.likelihood.model
-    effect = catalogue.REGISTRY[name]
-    parameter = effect.parameters[0]
-    prior = default_priors(model.recording.beam, (parameter,), {}, model.recording.setup)[parameter]
-    support = [float(np.exp(v)) if prior.log_scale else float(v) for v in prior.bounds()]
-    sig = _Signature(aug, parameter, posterior, theta, base_features, space, effect.absent[parameter])
+    effect = _effect(aug, name)
+    priors = default_priors(model.recording.beam, effect.parameters, {}, model.recording.setup)
+    support = _support(priors[parameter])
+    # the effect's other parameters stay where it vanishes: the other sensors' masses as stated
+    fixed = {p: v for p, v in effect.absent.items() if p != parameter}
+    sig = _Signature(aug, parameter, posterior, theta, base_features, space, effect.absent[parameter], fixed)
     value, interval, chi2, best = _grid_fit(sig, space, _grid(support), support) if effect.linear else \
         _linearised_fit(sig, space, support)
     delta = max(space.chi2_0 - chi2, 0.0)
     p = space.p_value(delta, 1)
     inside = value is not None and support[0] <= value <= support[1]
-    params = posterior.split(theta)[0]
+    params = {**posterior.split(theta)[0], **fixed}
     cand = Candidate(name, parameter, effect.units[parameter], value, interval, support, bool(inside), delta,
                      delta / space.chi2_0 if space.chi2_0 > 0 else 0.0, p, bool(p < level and inside),
-                     _predicted(space, best, mismatch), _frequency_shift(aug, model, params, parameter, value))
+                     _predicted(space, best, mismatch), _frequency_shift(aug, model, params, parameter, value),
+                     sensor=_sensor_of(aug, name, parameter),
+                     others={p: float(np.clip(v, *_support(priors[p]))) for p, v in fixed.items()})
     cand.reasoning = _reasoning(cand, mismatch)
     return cand
+
+
+def _support(prior) -> list[float]:
+    """A prior's support in values (SI units)."""
+    return [float(np.exp(v)) if prior.log_scale else float(v) for v in prior.bounds()]
 
 
 class _Signature:
@@ -347,32 +390,36 @@ class _Signature:
     shift, the damping parameters a sensor mass's redistribution) is neither linearised nor
     extrapolated from the baseline's Jacobian."""
 
-    def __init__(self, aug, parameter, posterior, theta, base_features, space, absent: float):
+    def __init__(self, aug, parameter, posterior, theta, base_features, space, absent: float, fixed: dict):
         self.evaluate = _Evaluator(aug, space.setting)
-        self.parameter, self.posterior, self.theta = parameter, posterior, theta
+        self.parameter, self.posterior, self.theta, self.fixed = parameter, posterior, theta, fixed
         self.space = space
         # a nonlinear model's features come from the data's estimators, whose bias on a noise-free
         # response (ERA's, the envelope's) is no part of the effect: its zero is the same estimators
         # where the effect vanishes, not the baseline's exact poles. Where it vanishes only in a
         # limit (a root spring's k_theta -> inf, the clamp), that is the baseline model itself.
-        params = posterior.split(theta)[0]
+        params = self.params(theta)
         if self.evaluate.exact:
             self.base = base_features
         elif np.isfinite(absent):
             self.base = self.evaluate({**params, parameter: absent})
         else:
-            self.base = _Evaluator(posterior.likelihood.model, space.setting, estimators=True)(params)
+            self.base = _Evaluator(posterior.likelihood.model, space.setting, estimators=True)(posterior.split(theta)[0])
         k = space.jacobian.shape[1]
         support = np.array([posterior.priors[i].bounds() for i in range(k)]).reshape(k, 2)
         # the posterior median may lie past a log-normal prior's +-4 sd support: never exclude it
         self.bounds = (np.minimum(support[:, 0] - theta[:k], 0.0), np.maximum(support[:, 1] - theta[:k], 0.0))
+
+    def params(self, theta) -> dict:
+        """The baseline's parameters at ``theta`` with the effect's other parameters held fixed."""
+        return {**self.posterior.split(theta)[0], **self.fixed}
 
     def __call__(self, value, beta=None):
         theta = self.theta.copy()
         if beta is not None:
             theta[: len(beta)] += beta
         try:
-            return self.evaluate({**self.posterior.split(theta)[0], self.parameter: value}) - self.base
+            return self.evaluate({**self.params(theta), self.parameter: value}) - self.base
         except (ValueError, np.linalg.LinAlgError, FloatingPointError, RuntimeError):   # e.g. drag's Newton
             return None
 
@@ -487,7 +534,7 @@ def _linearised_fit(sig: _Signature, space, support):
     """delta J fitted by least squares with delta >= 0, J from a probe scaled to PROBE_CHANGE;
     then, because the effect is not linear at the sizes that matter, Brent's method on the
     profiled chi2_e in log value within a factor BRACKET of that estimate."""
-    probe = _probe(sig.evaluate, sig.posterior.split(sig.theta)[0], sig.parameter, support)
+    probe = _probe(sig.evaluate, sig.params(sig.theta), sig.parameter, support)
     s_probe = sig(probe)
     if s_probe is None:
         return None, [0.0, 0.0], space.chi2_0, None
@@ -520,7 +567,7 @@ def _frequency_shift(aug, model, params, parameter, value) -> list:
     """The effect's own relative shift of each in-band mode (%) at ``value``, EI unchanged."""
     if value is None:
         return []
-    f0 = model.natural_frequencies(params)
+    f0 = model.natural_frequencies({k: v for k, v in params.items() if k in model.parameter_names})
     try:
         f1 = aug.natural_frequencies({**params, parameter: value})
     except (ValueError, np.linalg.LinAlgError):
@@ -573,7 +620,7 @@ def _reasoning(c: Candidate, mismatch) -> str:
     value = "no admissible value helps" if not c.value else \
         (f"needs {c.parameter} = {c.value:.3g} {c.unit} (90%: {c.interval_90[0]:.3g} to {c.interval_90[1]:.3g}), "
          f"{'inside' if c.within_prior else 'outside'} the prior [{c.prior[0]:.3g}, {c.prior[1]:.3g}]")
-    return (f"{c.effect}: {PHYSICS[c.effect]}{own}. Where its signature is strongest (after the model's own "
+    return (f"{c.label}: {PHYSICS[c.effect]}{own}. Where its signature is strongest (after the model's own "
             f"parameters re-adjust): {'; '.join(seen) or 'nowhere'}. It explains {c.explained:.0%} of the mismatch "
             f"(delta chi2 = {c.delta_chi2:.3g}, p = {c.p_value:.2g}); {value}: "
             f"{'supported' if c.supported else 'not supported'}.")
@@ -588,7 +635,7 @@ def _contrast(best: Candidate, other: Candidate, mismatch) -> str:
     zeta = mismatch.modes[mode - 1]["replicated_damping_ratio"]
     there = f" (it predicts {_format(kind, other.predicted[name], zeta)} for the {words})" \
         if name in other.predicted else ""
-    return (f" The next candidate, {other.effect}, explains {other.explained:.0%} "
+    return (f" The next candidate, {other.label}, explains {other.explained:.0%} "
             f"(delta chi2 = {other.delta_chi2:.3g}){there}.")
 
 
@@ -596,7 +643,7 @@ def _ranking_notes(found, chi2_0, dof, p0) -> list[str]:
     notes = [f"projected mismatch chi2 = {chi2_0:.3g} on {dof} degrees of freedom (p = {p0:.2g})"]
     if any(c.supported for c in found):
         best = found[0]
-        notes.append(f"best candidate: {best.effect} ({best.explained:.0%} of the mismatch)")
+        notes.append(f"best candidate: {best.label} ({best.explained:.0%} of the mismatch)")
     elif p0 < ALPHA:
         notes.append("no catalogue effect explains the mismatch: unexplained")
     else:

@@ -43,18 +43,24 @@ def listing(beam=None) -> list[str]:
         lines += _component_lines(component, beam)
     lines += ["", "Missing-physics effects (--effect NAME, repeatable; or joined to --model, e.g. q2+sensor_mass):"]
     for component in EFFECTS.values():
-        lines += _component_lines(component, beam)
+        lines += _component_lines(component, beam) + SENSOR_MASS_NOTE * (component.name == "sensor_mass")
     lines += ["", "Noise, per sensor channel <s> (--noise white: sigma_<s>; --noise ar1: also phi_<s>):"]
     units = {"sigma": "channel unit", "phi": "-"}
     lines += [_parameter_line(f"{name}_<s>", units[name], None, prior_of=name) for name in NOISE_DEFAULTS]
     lines += ["", ("Set-up, fitted by every model where beam.toml states a tolerance > 0 (l: [beam] "
-                   "length_tolerance; dx_<s>: [[sensor]] location_tolerance of sensor <s>):")]
+                   "length_tolerance; dx_<s>: [[sensor]] location_tolerance of sensor <s>; dx_hammer: "
+                   "[excitation] location_tolerance):")]
     lines += [f"      {name:<11} {unit:<14} {SETUP_PRIORS[name]}" for name, unit in SETUP_PARAMETER_UNITS.items()]
     if beam is None:
         scales = ", ".join(s for s in SCALES if s and s != "RMS")
         lines += ["", (f"Prior scales: {scales} of the beam.toml (RMS: the channel's). --beam BEAM_TOML "
                        "evaluates them; a [prior.NAME] table in a --config fit file replaces a default.")]
     return lines
+
+
+#: how the sensor_mass effect names its masses, and what a stated mass does
+SENSOR_MASS_NOTE = [("      (m_s for a recording's only sensor, m_s_<s> for each sensor <s> of several; a sensor's "
+                     "[[sensor]] mass centres its prior, and every model without the effect carries it)")]
 
 
 def _component_lines(component, beam) -> list[str]:

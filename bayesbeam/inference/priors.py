@@ -15,7 +15,7 @@ beta           1/s             log-uniform [1e-2, 1e4]                     memor
 a              N s             log-uniform [1e-6, 1e2]                     spatial hysteresis
 b              m               log-uniform [1e-3 l, l]                     kernel width
 k_theta        N m/rad         log-uniform [EI_0/l, 1e5 EI_0/l]            root spring
-m_s            kg              log-uniform [1e-4, 0.2] rho A l             sensor mass (*)
+m_s, m_s_<s>   kg              log-uniform [1e-4, 0.2] rho A l             sensor mass (*)
 P              N               uniform [-0.5 P_cr, 10 P_cr]                axial load
 c_q            N s^2/m^3       log-uniform [1e-4, 1e3]                     quadratic drag
 F_c            N               log-uniform [1e-5, 10]                      dry friction
@@ -30,14 +30,16 @@ sigma_<s>      sensor units    log-uniform [1e-6, 10] x channel RMS        noise
 phi_<s>        -               uniform [-0.99, 0.99]                       AR(1) coefficient
 l              m               uniform [l - t_l, l + t_l]                  free length (**)
 dx_<s>         m               uniform [-t_s, t_s], on the beam            sensor offset (**)
+dx_hammer      m               uniform [-t_h, t_h], on the beam            hammer offset (**)
 =============  ==============  ==========================================  ======================
 
 P_cr = pi^2 EI_0 / (4 l^2) is the cantilever's Euler buckling load. Outside its support a prior
 returns -inf; it never raises inside the sampler.
 
-(*) What beam.toml states about the set-up (``Recording.setup``) replaces a default: when the
-first sensor, where the ``sensor_mass`` effect puts m_s, states its own mass m (> 0), m_s is
-log-normal with median m and sd(log) :data:`SENSOR_MASS_SIGMA` = 0.3. The maker's mass is exact to
+(*) The ``sensor_mass`` effect fits a mass at each sensor: m_s for a recording's only sensor,
+m_s_<s> for sensor <s> of several. What beam.toml states about the set-up (``Recording.setup``)
+replaces a default: when a sensor states its own mass m (> 0), its mass is log-normal with
+median m and sd(log) :data:`SENSOR_MASS_SIGMA` = 0.3. The maker's mass is exact to
 a few per cent, but the mass that moves with the beam also holds the mounting (stud, wax or
 magnet) and the moving part of the cable, and the sensor is not a point: one sd is a factor 1.35,
 three sds a factor 2.5 either way. Without a stated mass the default scales with the beam's mass
@@ -48,7 +50,9 @@ rho A l is a heavier body than any sensor mounted on a beam.
 of every model, uniform over [l - t_l, l + t_l] (l the stated length); a sensor whose location
 beam.toml states with a ``location_tolerance`` t_s > 0 is placed at its stated location plus the
 offset dx_<s>, uniform over [-t_s, t_s] cut to the stated beam ([-x_s, l - x_s] for a sensor stated
-at x_s; a tip sensor's offset is [-t_s, 0]). A tolerance states an interval and nothing about where
+at x_s; a tip sensor's offset is [-t_s, 0]). A force recording's ``[excitation]
+location_tolerance`` t_h > 0 does the same for the hammer: dx_hammer, uniform over [-t_h, t_h] cut
+to [-x_f, l - x_f]. A tolerance states an interval and nothing about where
 inside it the value lies, and the uniform is the least informative distribution on an interval (a
 normal of sd t/2 cut at +-t would claim the stated value is likelier than its neighbours, which the
 tolerance does not say).
@@ -88,7 +92,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bayesbeam.model import LENGTH, SENSOR_OFFSET
+from bayesbeam.model import HAMMER_OFFSET, LENGTH, SENSOR_OFFSET
+from bayesbeam.physics.effects.sensor_mass import PER_SENSOR, SINGLE, mass_names
 
 KINDS = ("lognormal", "loguniform", "uniform")
 #: the names of a kind's two numbers, as a [prior.NAME] table spells them
@@ -198,7 +203,7 @@ SCALES = {
 }
 
 
-#: sd of log m_s about the first sensor's stated mass (see (*) above)
+#: sd of log m_s (m_s_<s>) about the sensor's stated mass (see (*) above)
 SENSOR_MASS_SIGMA = 0.3
 
 
@@ -212,10 +217,11 @@ def default_priors(beam, parameter_names, channel_rms: dict[str, float], setup=N
         if stated is not None:
             out[name] = stated
             continue
-        if name not in DEFAULTS:
+        key = default_key(name)
+        if key not in DEFAULTS:
             raise ValueError(f"no default prior for parameter {name!r}; give one in the fit file "
                              f"as [prior.{name}]")
-        kind, (a, scale_a), (b, scale_b) = DEFAULTS[name]
+        kind, (a, scale_a), (b, scale_b) = DEFAULTS[key]
         out[name] = setup_prior(name, setup) or Prior(kind, a * SCALES[scale_a](beam), b * SCALES[scale_b](beam))
     kind, (low, _), (high, _) = NOISE_DEFAULTS["sigma"]
     for channel, rms in channel_rms.items():
@@ -223,37 +229,47 @@ def default_priors(beam, parameter_names, channel_rms: dict[str, float], setup=N
     return out
 
 
-def stated_sensor_mass(setup) -> float | None:
-    """The first sensor's stated mass (kg), where the ``sensor_mass`` effect puts m_s; None when
-    ``setup`` is None or states none."""
-    masses = () if setup is None else setup.sensor_masses
-    return masses[0] if masses else None
+def default_key(name: str) -> str:
+    """The row of :data:`DEFAULTS` of parameter ``name``: a sensor's mass m_s_<s> takes m_s's."""
+    return SINGLE if name.startswith(PER_SENSOR.format("")) else name
+
+
+def stated_sensor_masses(setup) -> dict[str, float | None]:
+    """{``sensor_mass`` parameter (m_s, or m_s_<s> per sensor): the sensor's stated mass (kg), None
+    where not stated}; empty when ``setup`` is None."""
+    if setup is None:
+        return {}
+    return dict(zip(mass_names(s.name for s in setup.sensors), setup.sensor_masses))
 
 
 def setup_prior(name: str, setup) -> Prior | None:
     """The prior the stated set-up gives parameter ``name``, or None where it states nothing about it."""
-    mass = stated_sensor_mass(setup)
-    if name == "m_s" and mass:
+    mass = stated_sensor_masses(setup).get(name)
+    if mass:
         return Prior("lognormal", mass, SENSOR_MASS_SIGMA)
     return None
 
 
 def tolerance_prior(name: str, beam, setup) -> Prior | None:
-    """The prior of the fitted length ``l`` or of a sensor offset ``dx_<s>`` (m), uniform over the
-    stated tolerance (see (**) above); None when ``name`` is neither or nothing is stated."""
+    """The prior of the fitted length ``l``, a sensor offset ``dx_<s>`` or the hammer's ``dx_hammer``
+    (m), uniform over the stated tolerance (see (**) above); None when ``name`` is none of them or
+    nothing is stated."""
     if setup is None:
         return None
     if name == LENGTH and setup.length_tolerance > 0:
         return Prior("uniform", beam.length - setup.length_tolerance, beam.length + setup.length_tolerance)
-    for sensor, tolerance in zip(setup.sensors, setup.location_tolerances):
-        if name == SENSOR_OFFSET.format(sensor.name) and tolerance > 0:
-            return Prior("uniform", max(-tolerance, -sensor.location), min(tolerance, beam.length - sensor.location))
+    placed = [(SENSOR_OFFSET.format(s.name), s.location, t) for s, t in zip(setup.sensors, setup.location_tolerances)]
+    placed.append((HAMMER_OFFSET, setup.hammer_location, setup.excitation_location_tolerance))
+    for offset, location, tolerance in placed:
+        if name == offset and tolerance > 0:
+            return Prior("uniform", max(-tolerance, -location), min(tolerance, beam.length - location))
     return None
 
 
 #: ``bayesbeam models``'s lines for the set-up's priors (their numbers depend on each recording's set-up)
 SETUP_PRIORS = {LENGTH: "uniform(low=l - length_tolerance, high=l + length_tolerance)",
-                SENSOR_OFFSET.format("<s>"): "uniform(low=-location_tolerance, high=location_tolerance), cut to the beam"}
+                SENSOR_OFFSET.format("<s>"): "uniform(low=-location_tolerance, high=location_tolerance), cut to the beam",
+                HAMMER_OFFSET: "uniform(low=-[excitation] location_tolerance, high=location_tolerance), cut to the beam"}
 
 
 def noise_prior(kind_of_parameter: str) -> Prior:

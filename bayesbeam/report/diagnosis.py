@@ -116,11 +116,11 @@ def _found_sentence(summary) -> str:
     added = [c for c in summary["candidates"] if c["added"]]
     if added:
         final = summary["final"].get("parameters", {})
-        found = "; ".join(f"{_effect_words(c['effect'])} ({c['effect']}), "
+        found = "; ".join(f"{_effect_words(c['effect'])} ({_named(c)}), "
                           + ", ".join(_estimate(name, final.get(name, q)) for name, q in c["parameters"].items())
                           for c in added if not c.get("stand_in"))
         # a stand-in improves the fit with a value the stated set-up cannot have (diagnose.stand_in)
-        stand_ins = "; ".join(f"{c['effect']} stands in for a structural mismatch the catalogue cannot name "
+        stand_ins = "; ".join(f"{_named(c)} stands in for a structural mismatch the catalogue cannot name "
                               f"({c['stand_in']['parameter']} = {c['stand_in']['median']:.4g} {c['stand_in']['unit']}, "
                               f"{c['stand_in']['why']})" for c in added if c.get("stand_in"))
         return " ".join(text for text in (
@@ -136,7 +136,7 @@ def _evidence_sentence(summary) -> str:
     added = [c for c in summary["candidates"] if c["added"]]
     if added:
         return ("The evidence is " + " and ".join(
-            f"{strength(c['delta_log_evidence'])} for {c['effect']} (the data favour the model with it by a log Bayes "
+            f"{strength(c['delta_log_evidence'])} for {_named(c)} (the data favour the model with it by a log Bayes "
             f"factor of {c['delta_log_evidence']:.1f} +- {c['delta_log_evidence_sd']:.1f} nats)" for c in added) + ".")
     if summary["candidates"]:
         best = max(summary["candidates"], key=lambda c: c["delta_log_evidence"])
@@ -157,6 +157,11 @@ def _improvement_sentence(summary) -> str:
                 f"flag(s) in the mismatch map.")
     return (f"The fit improved from {before['model']} to {after['model']}: {rms}, log evidence from "
             f"{before['log_evidence']:.1f} to {after['log_evidence']:.1f}.")
+
+
+def _named(candidate: dict) -> str:
+    """A diagnosis.json candidate's effect, with the sensor a sensor mass sits at ('sensor_mass at mid')."""
+    return candidate.get("label") or candidate["effect"]
 
 
 def _effect_words(name: str) -> str:
@@ -407,7 +412,7 @@ def _ranking_part(round_, model, ranking) -> str:
 
 def candidates_table(ranking) -> str:
     """The signature screen's candidates, best first (the first highlighted when supported)."""
-    rows = [[esc(c.effect), esc(c.parameter), _value(c.value, c.unit), _interval(c.interval_90),
+    rows = [[esc(c.label), esc(c.parameter), _value(c.value, c.unit), _interval(c.interval_90),
              _interval(c.prior), f"{c.delta_chi2:.3g}", f"{100 * c.explained:.0f}%", f"{c.p_value:.2g}",
              "yes" if c.supported else "no"] for c in ranking.candidates]
     head = ["effect", "parameter", "value", "90% interval", "prior support", "&Delta;&chi;&sup2;", "explained",
@@ -456,7 +461,8 @@ def _effect_section(d, summary) -> str:
         caption = ("Posterior of the added effect's parameter in the augmented model (all SMC particles): median "
                    "(solid) and 90% interval (shaded), against the signature screen's value and 90% interval "
                    "(marker and bar), estimated before the model was fitted.")
-        out.append(f"<h3>{esc(t.effect)} (round {t.round}, {esc(t.result.name)})</h3>"
+        name = _named(summary["candidates"][d.trials.index(t)])
+        out.append(f"<h3>{esc(name)} (round {t.round}, {esc(t.result.name)})</h3>"
                    + figure(effect_posterior_plot(t, parameters, signature), f"posterior of {t.effect}", caption))
     if d.trials:
         out.append("<h3>Effect parameters of every augmented fit</h3>" + effect_table(d, summary))

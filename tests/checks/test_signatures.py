@@ -138,3 +138,43 @@ def test_a_nonlinear_baseline_screens_a_root_spring_against_the_clamp():
     result = rank_effects(post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES))
     spring = next(c for c in result.candidates if c.effect == "root_compliance")
     assert spring.within_prior and np.isfinite(spring.delta_chi2)
+
+
+# ---------------------------------------------------------------------------- a mass per sensor
+#: a 10 g accelerometer at mid-span, its mass not stated, beside the tip accelerometer
+MID_MASS = 0.01
+
+
+@cache
+def mid_span_ranking(order: str):
+    """q1 fitted to the paper beam's reference recording with a tip and a mid-span accelerometer,
+    10 g concealed at the mid-span one, listed tip first or mid first; the screen's ranking."""
+    from bayesbeam.io import Sensor
+    from tests.acceptance import cases as ac
+    from tests.diagnosis_cases import SENSOR_NOISE
+    from tests.reference import record
+
+    s = ac._setting("paper")
+    sensors = (Sensor("accel_tip", 1.0, "acceleration", "accel_tip"), Sensor("mid", 0.5, "acceleration", "accel_mid"))
+    masses = (0.0, MID_MASS)
+    if order == "mid_first":
+        sensors, masses = sensors[::-1], masses[::-1]
+    rec = record(ac._nominal(s["beam"]), ac.DAMPING["paper"]["q1"], EI=s["beam"].nominal_EI,
+                 excitation=s["excitation"], fs=s["fs"], duration=1.0, sensors=sensors,
+                 effects={"sensor_masses": masses}, noise=SENSOR_NOISE, seed=3)
+    post, draws, mismatch = fit_and_locate(rec)
+    return rank_effects(post, draws, mismatch)
+
+
+@pytest.mark.parametrize("order", ["tip_first", "mid_first"])
+def test_the_screen_names_the_sensor_that_carries_the_concealed_mass(order):
+    """Each sensor's mass is a candidate: the mid-span one, 'sensor_mass at mid', ranks above the
+    tip's (which carries nothing) by more than a factor 3 in Delta chi2, is supported, and is sized
+    within a factor 1.5 of its 10 g (as the other effects above), in either order of the tables."""
+    masses = [c for c in mid_span_ranking(order).candidates if c.effect == "sensor_mass"]
+    assert [c.sensor for c in masses] == ["mid", "accel_tip"], [(c.label, c.delta_chi2) for c in masses]
+    best = masses[0]
+    assert best.label == "sensor_mass at mid" and best.parameter == "m_s_mid"
+    assert best.supported and best.delta_chi2 > 3 * masses[1].delta_chi2
+    assert 1 / 1.5 < best.value / MID_MASS < 1.5, best.value
+    assert best.others == {"m_s_accel_tip": pytest.approx(best.prior[0])}     # nothing stated: the prior's low end

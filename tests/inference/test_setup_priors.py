@@ -30,10 +30,10 @@ def recording(setup_keys=None, beam=cases.PAPER_BEAM, sensors=None):
     return replace(rec.with_signals(noise), setup_keys=setup_keys or {})
 
 
-def m_s_prior(rec):
-    """The prior of m_s as ``prepare`` builds it for a fit of q1 + sensor_mass."""
+def m_s_prior(rec, name="m_s"):
+    """The prior of the sensor mass ``name`` as ``prepare`` builds it for a fit of q1 + sensor_mass."""
     post = prepare(rec, "q1+sensor_mass", FitConfig(), n_intervals=6).posterior
-    return dict(zip(post.names, post.priors))["m_s"]
+    return dict(zip(post.names, post.priors))[name]
 
 
 def test_a_stated_sensor_mass_centres_the_fits_m_s_prior():
@@ -46,14 +46,14 @@ def test_a_stated_sensor_mass_centres_the_fits_m_s_prior():
 
 def test_without_a_stated_mass_m_s_scales_with_the_beams_mass():
     """No mass stated, a stated mass of 0 (a non-contact sensor: no lognormal can centre on it),
-    or a mass stated only on a second sensor (m_s sits at the first): log-uniform over
+    or a mass stated only on another sensor: log-uniform over
     [1e-4, 0.2] x rho A l, the beam's mass computed here (1710 x 0.597e-3 x 1 kg)."""
     rho_a_l = 1710.0 * 0.597e-3 * 1.0
     second = Sensor("mid", 0.5, "acceleration", "accel_mid")
     tip = Sensor("accel_tip", 1.0, "acceleration", "accel_tip")
-    for rec in (recording(), recording({"sensor": [{"mass": 0.0}]}),
-                recording({"sensor": [{}, {"mass": STATED_MASS}]}, sensors=(tip, second))):
-        prior = m_s_prior(rec)
+    for rec, name in ((recording(), "m_s"), (recording({"sensor": [{"mass": 0.0}]}), "m_s"),
+                      (recording({"sensor": [{}, {"mass": STATED_MASS}]}, sensors=(tip, second)), "m_s_accel_tip")):
+        prior = m_s_prior(rec, name)
         assert prior.kind == "loguniform"
         assert (prior.a, prior.b) == pytest.approx((1e-4 * rho_a_l, 0.2 * rho_a_l), rel=1e-12)
 
@@ -91,3 +91,29 @@ def test_a_fit_refuses_a_bad_stated_value_before_anything_is_fitted():
     preparation, naming the key."""
     with pytest.raises(RecordingError, match=r"\[\[sensor\]\] #1 \.mass.*negative.*Fix:"):
         m_s_prior(recording({"sensor": [{"mass": -STATED_MASS}]}))
+
+
+def test_each_sensors_mass_has_its_own_prior_whatever_the_order():
+    """Two sensors, a mass stated on the mid-span one only: m_s_mid is log-normal about it (sd(log)
+    0.3), m_s_accel_tip log-uniform over [1e-4, 0.2] rho A l; the same with the tables swapped."""
+    rho_a_l = 1710.0 * 0.597e-3 * 1.0
+    tip = Sensor("accel_tip", 1.0, "acceleration", "accel_tip")
+    mid = Sensor("mid", 0.5, "acceleration", "accel_mid")
+    for sensors, keys in (((tip, mid), [{}, {"mass": STATED_MASS}]), ((mid, tip), [{"mass": STATED_MASS}, {}])):
+        rec = recording({"sensor": keys}, sensors=sensors)
+        stated, free = m_s_prior(rec, "m_s_mid"), m_s_prior(rec, "m_s_accel_tip")
+        assert (stated.kind, stated.a, stated.b) == ("lognormal", STATED_MASS, 0.3)
+        assert free.kind == "loguniform"
+        assert (free.a, free.b) == pytest.approx((1e-4 * rho_a_l, 0.2 * rho_a_l), rel=1e-12)
+
+
+@pytest.mark.parametrize(("location", "bounds"), [(0.75, (-0.01, 0.01)), (0.995, (-0.01, 0.005))])
+def test_the_hammers_offset_is_uniform_over_its_tolerance_cut_to_the_beam(location, bounds):
+    """[excitation] location_tolerance = 10 mm: dx_hammer uniform over [-10, 10] mm, cut at the
+    free end for a hammer stated 5 mm from it (the paper beam is 1 m long)."""
+    rec = recording({"excitation": {"location_tolerance": 0.01}})
+    rec = replace(rec, excitation=replace(rec.excitation, location=location))
+    post = prepare(rec, "q1", FitConfig(), n_intervals=6).posterior
+    assert post.names[: len(post.model_names)][-1] == "dx_hammer"
+    prior = dict(zip(post.names, post.priors))["dx_hammer"]
+    assert prior.kind == "uniform" and (prior.a, prior.b) == pytest.approx(bounds, rel=1e-12)

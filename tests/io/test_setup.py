@@ -143,3 +143,55 @@ def test_check_prints_the_stated_setup_and_refuses_a_bad_value(tmp_path, capsys)
     (bad / "recording.csv").write_text(CSV, encoding="utf-8")
     assert main(["check", str(bad), "--out", str(tmp_path / "out_bad")]) == 2
     assert "[[sensor]] #1 .mass" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------- the hammer's location tolerance
+FORCE = STATED.replace('kind = "free_decay"\nstart = 0.01',
+                       'kind = "force"\nlocation = 0.5\ncolumn = "force"\nlocation_tolerance = 0.003')
+FORCE_CSV = "time,accel_tip,accel_mid,force\n" + "".join(
+    f"{k / 1024!r},{float(np.sin(k / 7.0))!r},{float(np.cos(k / 5.0))!r},{float(k == 3)!r}\n"
+    for k in range(MIN_SAMPLES + 8))
+
+
+def make_force(tmp_path: Path, toml: str = FORCE) -> Path:
+    directory = make(tmp_path, toml)
+    (directory / "recording.csv").write_text(FORCE_CSV, encoding="utf-8")
+    return directory
+
+
+def test_the_hammers_tolerance_is_read_kept_and_written_back(tmp_path):
+    """[excitation] location_tolerance of a force recording: read without a warning, exposed with the
+    hammer's stated location, written back by write_recording."""
+    rec = quietly_loaded(make_force(tmp_path))
+    assert rec.setup.excitation_location_tolerance == 0.003 and rec.setup.hammer_location == 0.5
+    back = quietly_loaded(write_recording(rec, tmp_path / "copy"))
+    assert back.setup == rec.setup and back.setup_keys == rec.setup_keys
+
+
+@pytest.mark.parametrize("value", ["-0.003", "nan", '"3 mm"'])
+def test_a_bad_hammer_tolerance_is_refused_when_read(tmp_path, value):
+    rec = quietly_loaded(make_force(tmp_path, FORCE.replace("location_tolerance = 0.003", f"location_tolerance = {value}")))
+    with pytest.raises(RecordingError, match=r"\[excitation\] \.location_tolerance.*Fix:"):
+        _ = rec.setup
+
+
+def test_a_hammer_tolerance_beside_a_sensor_named_hammer_with_one_is_refused(tmp_path):
+    """Both offsets would be called dx_hammer: the sensor's name is refused, with the fix."""
+    rec = quietly_loaded(make_force(tmp_path, FORCE.replace('name = "tip"', 'name = "hammer"')))
+    with pytest.raises(RecordingError, match=r"\[\[sensor\]\] #1 \.name.*dx_hammer.*Fix: rename the sensor"):
+        _ = rec.setup
+
+
+def test_without_a_hammer_the_key_is_unused(tmp_path):
+    """A free decay has no hammer: the key warns as unused at load and reads as 0."""
+    toml = STATED.replace("start = 0.01", "start = 0.01\nlocation_tolerance = 0.003")
+    with pytest.warns(UserWarning, match="location_tolerance"):
+        rec = load_recording(make(tmp_path, toml))
+    assert rec.setup.excitation_location_tolerance == 0.0
+
+
+def test_check_shows_the_hammers_tolerance(tmp_path, capsys):
+    from bayesbeam.cli import main
+
+    assert main(["check", str(make_force(tmp_path)), "--out", str(tmp_path / "out")]) == 0
+    assert "hammer location +- 0.003 m" in capsys.readouterr().out

@@ -21,12 +21,13 @@ from tests.inference import cases
 X0, TOLERANCE, OFFSET = 0.62, 0.03, 0.021
 MID = Sensor("accel_mid", X0, "acceleration", "accel_mid")
 TIP = Sensor("disp_tip", 1.0, "displacement", "disp_tip")
-PARAMS = {**cases.TRUTH["q1"], "m_s": 0.02, "k_theta": 5e3, "F_c": 0.05}
+#: the sensor_mass effect's mass at each sensor (m_s_<name>): 20 g at the mid-span one
+PARAMS = {**cases.TRUTH["q1"], "m_s_accel_mid": 0.02, "m_s_disp_tip": 0.0, "k_theta": 5e3, "F_c": 0.05}
 
 
 def recording(location=X0, tolerance=None, kind="force"):
     """A cheap paper-beam recording (0.25 s at 512 Hz) with a mid-span accelerometer at
-    ``location`` (listed first: the sensor mass sits there) and a tip displacement sensor."""
+    ``location`` (its mass m_s_accel_mid is the sensor mass) and a tip displacement sensor."""
     rec = cases.base_recording(fs=512.0, duration=0.25, sensors=(replace(MID, location=location), TIP))
     if kind == "release":
         rec = replace(rec, excitation=Excitation("release", tip_load=1.0), force=None)
@@ -132,7 +133,8 @@ def test_point_matrices_are_kept_for_the_latest_points_only():
 
 # ---------------------------------------------------------------------------- the free length
 STRETCH = 0.013
-LENGTH_PARAMS = {**PARAMS, "alpha": 2.0, "beta": 200.0, "a": 0.025, "b": 0.18, "P": 3.0, "c_q": 0.5}
+LENGTH_PARAMS = {**PARAMS, "alpha": 2.0, "beta": 200.0, "a": 0.025, "b": 0.18, "P": 3.0, "c_q": 0.5,
+                 "m_s_mid": 0.02, "m_s_tip": 0.0}
 
 
 def strip(length=cases.ALU_BEAM.length, tolerance=None, kind="force", shift=0.0, location_tolerance=None):
@@ -201,8 +203,8 @@ def test_length_and_offset_together_place_the_sensor_and_its_mass():
     moved = BeamModel(replace(stretched, sensors=(replace(mid, location=0.3 + STRETCH + dx), tip)),
                       "q1+sensor_mass", 8)
     moved.__dict__["_departures"] = None
-    params = {"EI": cases.ALU_BEAM.nominal_EI, "gamma": 0.18, "cdI": 2e-5, "m_s": 0.02}
-    assert fitted.parameter_names == ("EI", "gamma", "cdI", "m_s", "l", "dx_mid")
+    params = {"EI": cases.ALU_BEAM.nominal_EI, "gamma": 0.18, "cdI": 2e-5, "m_s_mid": 0.02, "m_s_tip": 0.0}
+    assert fitted.parameter_names == ("EI", "gamma", "cdI", "m_s_mid", "m_s_tip", "l", "dx_mid")
     y_fit = fitted.simulate({**params, "l": l0 + STRETCH, "dx_mid": dx})
     y_moved = moved.simulate(params)
     assert np.all(np.abs(y_fit - y_moved).max(axis=0) <= 1e-7 * np.abs(y_moved).max(axis=0))

@@ -134,7 +134,8 @@ def _release(blocks, tip_load: float, times: np.ndarray, h: float, step=integrat
 
 MECHANISM_KEYS = {"air": ("gamma",), "strain_rate": ("cdI",), "time_hysteresis": ("alpha", "beta"),
                   "spatial_hysteresis": ("a", "b"), **RELAXATION_KEYS}
-EFFECT_NAMES = {"k_theta": "root_compliance", "c_theta": "root_damping", "m_s": "sensor_mass", "P": "axial_load",
+EFFECT_NAMES = {"k_theta": "root_compliance", "c_theta": "root_damping", "m_s": "sensor_mass",
+                "sensor_masses": "sensor_mass", "P": "axial_load",
                 "tau": "measurement_delay", "F_c": "dry_friction"}
 TIP_ACCELEROMETER = "accel_tip"
 NOTES = {"simulator": "tests.reference: Hermite cubic finite elements, exact exponential stepping",
@@ -152,7 +153,8 @@ def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float,
     EI: the true bending stiffness (N m^2), default ``beam.nominal_EI``; tip: default none;
     damping: the paper's parameters (gamma, cdI, alpha, beta, a, b; SI units) or the literature's
     (c_e, mu; c_f, nu; Delta, tau_T: :mod:`tests.reference.relaxation`);
-    effects: k_theta (N m/rad), c_theta (N m s/rad), m_s (kg, at the first sensor), P (N), tau (s),
+    effects: k_theta (N m/rad), c_theta (N m s/rad), m_s (kg, at the first sensor), sensor_masses
+    (kg per sensor, in the order of ``sensors``), P (N), tau (s),
     F_c (N, Coulomb friction at the tip; memory-free damping only);
     material: a ``[material]`` table written to beam.toml as given (docs/format.md);
     excitation: :class:`Hammer` (force channel "force") or :class:`Release` (no force channel);
@@ -184,6 +186,13 @@ def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float,
     return rec
 
 
+def _truth_entry(key: str, value, sensors) -> dict:
+    """An effect's true parameters by the names bayesbeam fits: sensor_masses as m_s_<sensor>."""
+    if key == "sensor_masses":
+        return {f"m_s_{s.name}": float(m) for s, m in zip(sensors, value)}
+    return {key: value}
+
+
 def _truth(name, case, excitation, fs, n, seed, sensors, sensor_sd, force_sd, noise, numerics) -> dict:
     mechanisms = [m for m, keys in MECHANISM_KEYS.items() if keys[0] in case.damping]
     return {
@@ -193,7 +202,7 @@ def _truth(name, case, excitation, fs, n, seed, sensors, sensor_sd, force_sd, no
                       "tip_inertia": case.J},
         "mechanisms": mechanisms,
         "damping": dict(case.damping),
-        "effects": {EFFECT_NAMES[k]: {k: v} for k, v in case.effects.items()},
+        "effects": {EFFECT_NAMES[k]: _truth_entry(k, v, sensors) for k, v in case.effects.items()},
         "excitation": {"kind": "force" if isinstance(excitation, Hammer) else "release", **asdict(excitation)},
         "sensors": [{"name": s.name, "location": s.location, "quantity": s.quantity} for s in sensors],
         "fs": fs,

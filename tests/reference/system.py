@@ -3,7 +3,7 @@ r"""The beam's linear state-space model, assembled from :mod:`tests.reference.fe
 .. math:: M\ddot w + D\dot w + K w - K_0\int_0^\infty g(\sigma)\,w(t-\sigma)\,d\sigma = b\,f(t)
 
 with :math:`K = EI\,K_0 + P\,G_0 + k_\theta e e^T`, :math:`D = \gamma M_0 + c_dI\,K_0 + D_{sh}(a, b) + c_\theta e e^T`,
-:math:`M = \rho A\,M_0` + tip body + sensor mass, and b the load row at the force's position.
+:math:`M = \rho A\,M_0` + tip body + sensor masses, and b the load row at the force's position.
 
 Two first-order forms, both integrated exactly by :mod:`tests.reference.integrate`:
 
@@ -32,7 +32,7 @@ from .memory import SumOfExponentials
 from .relaxation import RELAXATION_KEYS
 
 DAMPING_KEYS = ("gamma", "cdI", "alpha", "beta", "r", "a", "b", *(k for keys in RELAXATION_KEYS.values() for k in keys))
-EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "P", "tau", "F_c")
+EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "sensor_masses", "P", "tau", "F_c")
 #: parameters that come in pairs
 PAIRS = (("alpha", "beta"), ("a", "b"), *RELAXATION_KEYS.values())
 ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
@@ -46,7 +46,8 @@ class BeamCase:
     names (gamma N s/m^2, cdI N m^2 s, alpha N m^2 s^-1/2, beta 1/s, a N s, b m) or the literature's
     (:mod:`tests.reference.relaxation`: c_e N m^2 s and mu 1/s, c_f N m^2 s^nu and nu, Delta and
     tau_T s); ``effects``: k_theta (N m/rad, root spring), c_theta (N m s/rad, a root dashpot beside
-    it), m_s (kg, point mass at the first sensor), P (N, axial load, tension positive), tau (s,
+    it), m_s (kg, point mass at the first sensor), sensor_masses (kg per sensor, in the order of
+    ``sensors``: a point mass at any sensor; beside m_s the first sensor carries both), P (N, axial load, tension positive), tau (s,
     delay of the response channels), F_c (N, Coulomb friction at the tip: :mod:`tests.reference.friction`). ``sensors``: (location m, quantity).
     """
 
@@ -64,8 +65,8 @@ class BeamCase:
             unknown = set(given) - set(known)
             if unknown:
                 raise ValueError(f"unknown {name} parameter(s) {sorted(unknown)}; known: {', '.join(known)}")
-        negative = {k: v for k, v in {**self.damping, **self.effects}.items()
-                    if (not np.isfinite(v) and k != "r") or (v < 0 and k != "P")}
+        scalars = {k: v for k, v in {**self.damping, **self.effects}.items() if k != "sensor_masses"}
+        negative = {k: v for k, v in scalars.items() if (not np.isfinite(v) and k != "r") or (v < 0 and k != "P")}
         if negative or min(self.length, self.rho_a, self.EI) <= 0 or min(self.m_T, self.J) < 0:
             raise ValueError(f"parameters must be finite and non-negative (P may be negative), l, rho A and EI "
                              f"positive; got {negative or (self.length, self.rho_a, self.EI, self.m_T, self.J)}")
@@ -82,6 +83,10 @@ class BeamCase:
                              f"({', '.join(k for keys in RELAXATION_KEYS.values() for k in keys)}) separately")
         if self.damping.get("r", np.inf) != np.inf:
             raise ValueError("the reference simulates time hysteresis with infinite memory only: drop r")
+        masses = self.effects.get("sensor_masses", (0.0,) * len(self.sensors))
+        if len(masses) != len(self.sensors) or not all(np.isfinite(m) and m >= 0 for m in masses):
+            raise ValueError(f"sensor_masses {masses!r}: give one finite mass >= 0 (kg) per sensor, "
+                             f"{len(self.sensors)} in all")
         located = tuple((self.length if x is None else float(x), q) for x, q in self.sensors)
         object.__setattr__(self, "sensors", located)
         for _, quantity in located:
@@ -118,6 +123,8 @@ def matrices(case: BeamCase, n_elements: int) -> Matrices:
     M = case.rho_a * mesh.M0 + case.m_T * mesh.point(case.length) + case.J * mesh.point(case.length, 1)
     if "m_s" in e:
         M = M + e["m_s"] * mesh.point(case.sensors[0][0])
+    for (x, _), m in zip(case.sensors, e.get("sensor_masses", ())):
+        M = M + m * mesh.point(x)
     K = case.EI * mesh.K0 + e.get("P", 0.0) * mesh.G0
     if "k_theta" in e:
         K = K + e["k_theta"] * mesh.root_spring()

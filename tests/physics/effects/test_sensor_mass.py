@@ -1,4 +1,4 @@
-"""sensor_mass: a point mass at the first sensor, against the analytic beam with a point mass.
+"""sensor_mass: a point mass at each sensor, against the analytic beam with a point mass.
 
 Truth, derived here (l = 1, EI = rho A = 1, omega^2 = b^4, mu = m_s / (rho A l)): on each side of
 the mass u = A cosh + B sinh + C cos + D sin in b x; clamped root; u, u', u'' continuous at the
@@ -6,6 +6,8 @@ mass and EI [u''']_-^+ = m_s omega^2 u (the mass's inertia is a point load); fre
 u'' = u''' = 0. At the tip this is the classical tip-mass equation
 EI u'''(l) = -m_s omega^2 u(l).
 """
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy import linalg, optimize
@@ -14,7 +16,7 @@ from bayesbeam import BeamModel
 from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics.basis import SplineBasis
 from bayesbeam.physics.effects import REGISTRY, Setup
-from tests.physics.effects.helpers import PAPER_EI, recording
+from tests.physics.effects.helpers import PAPER_BEAM, PAPER_EI, recording
 
 EFFECT = REGISTRY["sensor_mass"]
 
@@ -87,10 +89,66 @@ def test_sensor_inside_the_span(location):
     np.testing.assert_allclose(galerkin_roots(0.2, location) ** 2, exact**2, rtol=3e-4)
 
 
-def test_model_puts_the_mass_at_the_first_sensor():
-    rec = recording(sensors=((1.0, "acceleration"), (0.5, "acceleration")))
+TWO_SENSORS = ((1.0, "acceleration"), (0.5, "acceleration"))     # s0 at the tip, s1 at mid-span
+
+
+def _with_masses(rec, masses):
+    """``rec`` with beam.toml's [[sensor]] mass stated per sensor (None: not stated)."""
+    return replace(rec, setup_keys={"sensor": [{} if m is None else {"mass": m} for m in masses]})
+
+
+def _exact_hz(rec, fun, count, *args):
+    """The analytic frequencies (Hz) at the paper's EI of ``fun``'s roots b (l = 1)."""
+    return roots(fun, count, *args) ** 2 * np.sqrt(PAPER_EI / rec.beam.rho_a) / (2 * np.pi)
+
+
+def test_a_single_sensor_keeps_the_name_m_s():
+    """One sensor: the parameter is m_s, as in every study output written so far."""
+    assert BeamModel(recording(), "air", 8, effects="sensor_mass").parameter_names == ("EI", "gamma", "m_s")
+
+
+@pytest.mark.parametrize(("masses", "fun", "args"), [
+    ({"m_s_s0": 0.05, "m_s_s1": 0.0}, tip_mass_determinant, (0.05 / PAPER_BEAM.rho_a,)),
+    ({"m_s_s0": 0.0, "m_s_s1": 0.2 * PAPER_BEAM.rho_a}, point_mass_determinant, (0.2, 0.5))])
+def test_the_model_puts_each_sensors_mass_at_that_sensor(masses, fun, args):
+    """Two sensors: m_s_<name> per sensor, each at its own sensor (first 4 modes within 3e-4 of the
+    analytic tip-mass or interior-mass equation: the Galerkin error at N = 32, as above)."""
+    rec = recording(sensors=TWO_SENSORS)
     model = BeamModel(rec, "air", 32, effects="sensor_mass")
-    m_s = 0.05
-    freqs = model.natural_frequencies({"EI": PAPER_EI, "gamma": 0.0, "m_s": m_s}, 4)
-    b = roots(tip_mass_determinant, 4, m_s / rec.beam.rho_a)
-    np.testing.assert_allclose(freqs, b**2 * np.sqrt(PAPER_EI / rec.beam.rho_a) / (2 * np.pi), rtol=3e-4)
+    assert model.parameter_names == ("EI", "gamma", "m_s_s0", "m_s_s1")
+    freqs = model.natural_frequencies({"EI": PAPER_EI, "gamma": 0.0, **masses}, 4)
+    np.testing.assert_allclose(freqs, _exact_hz(rec, fun, 4, *args), rtol=3e-4)
+
+
+def test_a_stated_mass_enters_a_model_without_the_effect():
+    """mass stated on the mid-span sensor: q1 alone carries it (interior-mass equation, 3e-4)."""
+    rec = _with_masses(recording(sensors=TWO_SENSORS), [None, 0.2 * PAPER_BEAM.rho_a])
+    freqs = BeamModel(rec, "air", 32).natural_frequencies({"EI": PAPER_EI, "gamma": 0.0}, 4)
+    np.testing.assert_allclose(freqs, _exact_hz(rec, point_mass_determinant, 4, 0.2, 0.5), rtol=3e-4)
+
+
+def test_a_fitted_mass_replaces_the_stated_one():
+    """Stated 0.1 rho A l at mid-span, fitted 0.2 rho A l: the model holds 0.2 there, not 0.3; and
+    at the stated value the effect adds nothing (the model without it, to rounding: 1e-12)."""
+    rec = _with_masses(recording(sensors=TWO_SENSORS), [None, 0.1 * PAPER_BEAM.rho_a])
+    model = BeamModel(rec, "air", 32, effects="sensor_mass")
+    assert model.effects[0].absent == {"m_s_s0": 0.0, "m_s_s1": 0.1 * PAPER_BEAM.rho_a}
+    fitted = {"EI": PAPER_EI, "gamma": 0.0, "m_s_s0": 0.0, "m_s_s1": 0.2 * PAPER_BEAM.rho_a}
+    np.testing.assert_allclose(model.natural_frequencies(fitted, 4),
+                               _exact_hz(rec, point_mass_determinant, 4, 0.2, 0.5), rtol=3e-4)
+    bare = BeamModel(rec, "air", 32).natural_frequencies({"EI": PAPER_EI, "gamma": 0.0}, 6)
+    at_stated = model.natural_frequencies({**fitted, **model.effects[0].absent}, 6)
+    np.testing.assert_allclose(at_stated, bare, rtol=1e-12)
+
+
+def test_the_masses_follow_the_sensors_names_not_their_order():
+    """The same set-up with the [[sensor]] tables in the other order: the same frequencies to
+    rounding (1e-12) for the same named masses, stated or fitted."""
+    first = _with_masses(recording(sensors=TWO_SENSORS), [0.01, None])
+    swapped = replace(first, sensors=first.sensors[::-1], signals=first.signals[:, ::-1],
+                      setup_keys={"sensor": [{}, {"mass": 0.01}]})
+    params = {"EI": PAPER_EI, "gamma": 0.0, "m_s_s0": 0.012, "m_s_s1": 0.03}
+    for effects in (None, "sensor_mass"):
+        a, b = (BeamModel(r, "air", 16, effects=effects) for r in (first, swapped))
+        own = {k: v for k, v in params.items() if k in a.parameter_names}
+        np.testing.assert_allclose(a.natural_frequencies(own, 6), b.natural_frequencies(own, 6), rtol=1e-12)
