@@ -179,7 +179,7 @@ class Diagnosis:
         return next((c for c in self.rankings[trial.round - 1].candidates if c.effect == trial.effect), None)
 
     def to_dict(self) -> dict:
-        """diagnosis.json (the issue's layout, plus the maps, rankings and decisions in full)."""
+        """diagnosis.json (its summary keys, then the maps, rankings and decisions in full)."""
         return summarise(self)
 
 
@@ -534,7 +534,7 @@ def improved(before: Mismatch, after: Mismatch) -> bool:
 
 # ---------------------------------------------------------------------------- diagnosis.json
 def summarise(d: Diagnosis) -> dict:
-    """diagnosis.json: the issue's keys first, then the maps, rankings and decision rule in full."""
+    """diagnosis.json: its summary keys first, then the maps, rankings and decision rule in full."""
     base, final = d.baseline, d.final
     rec = base.problem.model.recording
     candidates = [_trial_entry(t, d.signature(t)) for t in d.trials]
