@@ -6,7 +6,8 @@ It shares nothing with :mod:`bayesbeam.physics`, :mod:`bayesbeam.response` or :m
 * space: Hermite cubic Euler-Bernoulli finite elements (:mod:`.fem`), 60 by default, clamped root
   or root spring (with a root dashpot), tip body, sensor mass, axial load, Coulomb friction at the
   tip (:mod:`.friction`), the paper's four damping mechanisms and the literature's three
-  (fractional, exponential relaxation, Zener's solid);
+  (fractional, exponential relaxation, Zener's solid), and thermoelastic damping solved from the
+  heat equation across the thickness (:mod:`.thermoelastic`);
 * time: exact exponential stepping of the first-order system under a piecewise-cubic (Hermite)
   force on a fine grid (:mod:`.integrate`); time hysteresis as a sum of exponentials that is exact
   in the limit, in the undamped modes (:mod:`.memory`, :mod:`.system`); the literature's

@@ -11,7 +11,8 @@ with :math:`M_r = \Phi^T M\Phi`, :math:`D_r`, :math:`K_r` likewise and :math:`C_
 
 * all finite-element dofs (:math:`\Phi = I`) when only exponential relaxation or Zener's solid is
   present: one or two terms, no modal truncation (3n or 4n states for n dofs);
-* the undamped modes of (K, M) below a cut-off for the fractional quadrature's dozens of terms:
+* the undamped modes of (K, M) below a cut-off for the fractional quadrature's dozens of terms
+  and the thermal modes of the solved thermoelastic damping:
   one block per mode when :math:`D_r` and :math:`C_r` are diagonal (a bare or tip-loaded beam, with
   air or strain rate), else one block of all kept modes (a root spring or an axial load couples
   them through :math:`C_r`).
@@ -22,6 +23,10 @@ import numpy as np
 
 from .relaxation import Relaxation, relaxation_of
 from .system import MAX_COUPLED_STATES, Blocks, Matrices, _is_diagonal, _readout, undamped_modes
+
+#: relaxation terms simulated on every finite-element dof (exponential relaxation and Zener's solid
+#: together); more terms run in the undamped modes
+FULL_BASIS_TERMS = 2
 
 
 def _block(case, mesh, relax: Relaxation, phi, mass, damping, stiffness, curvature, load):
@@ -44,12 +49,12 @@ def _block(case, mesh, relax: Relaxation, phi, mass, damping, stiffness, curvatu
 
 def relaxation_blocks(case, mats: Matrices, load_at: float, omega_cut: float, du: float = 0.5) -> Blocks:
     """Blocks of ``case`` (a BeamCase with a relaxing moment), unit force at ``load_at`` (m): all
-    dofs without a fractional mechanism, else the modes below ``omega_cut`` (rad/s), the fractional
-    quadrature (step ``du``) covering the first mode to omega_cut."""
+    dofs with one or two terms (exponential, Zener), else the modes below ``omega_cut`` (rad/s), the
+    fractional quadrature (step ``du``) covering the first mode to omega_cut."""
     omega, phi = undamped_modes(mats)
     relax = relaxation_of(case.damping, case.EI, omega[0], omega_cut, du)
     load = mats.mesh.rows([load_at])[0]
-    if "c_f" not in case.damping:
+    if relax.rates.size <= FULL_BASIS_TERMS:
         block = _block(case, mats.mesh, relax, np.eye(mats.mesh.n_dof), mats.M, mats.D, mats.K, mats.K0, load)
         A, B, C, F = (np.asarray(part)[None] for part in block)
         return Blocks(A, B, C, F[0])
@@ -58,7 +63,7 @@ def relaxation_blocks(case, mats: Matrices, load_at: float, omega_cut: float, du
     damping, curvature = phi.T @ mats.D @ phi, phi.T @ mats.K0 @ phi
     coupled = not (_is_diagonal(damping) and _is_diagonal(curvature))
     if coupled and omega.size * (2 + relax.rates.size) > MAX_COUPLED_STATES:
-        raise ValueError(f"fractional damping with modes coupled by a root spring, an axial load or the damping "
+        raise ValueError(f"fractional or solved thermoelastic damping with modes coupled by a root spring, an axial load or the damping "
                          f"needs one block of {omega.size * (2 + relax.rates.size)} states, over "
                          f"{MAX_COUPLED_STATES}. Fix: keep fewer modes or rates, e.g. Numerics(omega_cut=2 * pi * "
                          "2000, du=0.7).")

@@ -41,6 +41,11 @@ exactly (:mod:`tests.reference.integrate`); :math:`R(0) = 0`: the static stiffne
   :math:`\int e^{\mp k u}du` over a half-line, so that the tails stand for the rule's own cells and
   the truncated sum keeps the rule's accuracy. What remains is of the tails' third moment:
   :math:`(r_{lo}/|s|)^{\nu+2}` and :math:`(|s|/r_{hi})^{3-\nu}`.
+* **Thermoelastic damping, solved** (:mod:`tests.reference.thermoelastic`: heat conduction across
+  the thickness, the odd thermal modes of an insulated slab): strength Delta_slab and the slowest
+  mode's time tau_slab = h^2/(pi^2 chi) give :math:`c_n = EI\,\Delta\,96/(\pi^4 n^4)`,
+  :math:`r_n = n^2/\tau` for n = 1, 3, 5, ... and one lumped tail term: the exact response of
+  Zener's physics, not his single term.
 
 :meth:`Relaxation.transform` gives R(s) for the tests to compare with the closed forms.
 """
@@ -50,8 +55,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .thermoelastic import thermal_modes
+
 #: relaxation parameters of the bending moment (BeamCase damping keys), by mechanism
-RELAXATION_KEYS = {"exponential": ("c_e", "mu"), "fractional": ("c_f", "nu"), "thermoelastic": ("Delta", "tau_T")}
+RELAXATION_KEYS = {"exponential": ("c_e", "mu"), "fractional": ("c_f", "nu"), "thermoelastic": ("Delta", "tau_T"),
+                   "thermoelastic_slab": ("Delta_slab", "tau_slab")}
 
 
 @dataclass(frozen=True)
@@ -78,6 +86,13 @@ def exponential(c_e: float, mu: float) -> Relaxation:
 def zener(EI: float, Delta: float, tau_T: float) -> Relaxation:
     """Standard linear solid of relaxed stiffness EI (N m^2), strength Delta, relaxation time tau_T (s)."""
     return Relaxation(np.array([EI * Delta]), np.array([1.0 / tau_T]))
+
+
+def heat_conduction(EI: float, Delta: float, tau_slab: float) -> Relaxation:
+    """Thermoelastic relaxation of a beam of relaxed stiffness EI (N m^2) and strength Delta from the
+    heat equation across its thickness, slowest thermal time tau_slab = h^2/(pi^2 chi) (s)."""
+    weights, rates = thermal_modes(tau_slab)
+    return Relaxation(EI * Delta * weights, rates)
 
 
 @dataclass(frozen=True)
@@ -134,6 +149,8 @@ def relaxation_of(damping: dict, EI: float, omega_lo: float, omega_hi: float, du
         parts.append(exponential(damping["c_e"], damping["mu"]))
     if "Delta" in damping:
         parts.append(zener(EI, damping["Delta"], damping["tau_T"]))
+    if "Delta_slab" in damping:
+        parts.append(heat_conduction(EI, damping["Delta_slab"], damping["tau_slab"]))
     if "c_f" in damping:
         quadrature = FractionalQuadrature.covering(damping["nu"], omega_lo, omega_hi, du)
         parts.append(quadrature.relaxation(damping["c_f"]))
