@@ -128,17 +128,21 @@ def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     """Window, decimate, and build the model, likelihood and posterior at N = n_intervals."""
     _check_channels(rec)
     factor, f_max = _band(rec, config)
-    data = decimate(rec, factor, force_window=config.force_window)
+    # a hit near the start: the decimating low-pass spreads its force back before the record,
+    # and the model must be driven by that part too (signals.decimate)
+    lead = EDGE if factor > 1 and rec.excitation.kind == "force" else 0
+    data = decimate(rec, factor, force_window=config.force_window, lead=lead)
     model = BeamModel.from_recording(data, mechanisms, n_intervals, force_window=False,
                                      effects=config.effects, degree=config.degree)
-    i0, i1 = _window(data, config, edge=EDGE if factor > 1 else 0)
+    i0, i1 = _window(data, config, edge=EDGE if factor > 1 else 0, first=rec.time[0])
     _check_length(rec, i1 - i0, factor, f_max)
     # default: up to 16 blocks of at least 256 samples that cover the window (the remainder is
     # under one sample per block); an explicit block longer than the window is refused
     n_blocks = int(np.clip((i1 - i0) // 256, 1, 16))
     block = config.block or (i1 - i0) // n_blocks
     projection = BandProjection(data.fs, i0, i1, block, f_max)
-    noise_in_force = force_noise(rec, factor) if config.force_noise and config.force_window is not False else None
+    noise_in_force = (force_noise(rec, factor, lead) if config.force_noise and config.force_window is not False
+                      else None)
     likelihood = Likelihood(model, projection, config.noise, noise_in_force)
     priors = default_priors(rec.beam, model.parameter_names, likelihood.channel_rms, rec.setup)
     for name in likelihood.noise_names:
@@ -184,15 +188,17 @@ def _check_length(rec, n_fitted: int, factor: int, f_max: float) -> None:
     )
 
 
-def _window(data, config: FitConfig, edge: int) -> tuple[int, int]:
+def _window(data, config: FitConfig, edge: int, first: float) -> tuple[int, int]:
+    """(i0, i1) of the fitted samples of ``data``; by default from ``first`` (s), the recording's
+    start (a decimated record's lead before it is not fitted)."""
     time = data.time
-    start = config.start if config.start is not None else time[0]
+    start = config.start if config.start is not None else first
     if data.excitation.kind == "free_decay":
         start = max(start, data.excitation.start)
     stop = config.stop if config.stop is not None else time[-1]
-    if not (time[0] <= start < stop and start < time[-1]):
+    if not (first <= start < stop and start < time[-1]):
         raise ValueError(f"fit window start = {start} s, stop = {stop} s: need "
-                         f"{time[0]} <= start < stop <= {time[-1]} s")
+                         f"{first} <= start < stop <= {time[-1]} s")
     i0 = int(np.searchsorted(time, start))
     i1 = min(int(np.searchsorted(time, stop, side="right")), data.n_samples - edge)
     return i0, i1
