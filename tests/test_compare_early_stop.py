@@ -125,6 +125,7 @@ def real_comparisons():
             for stop in (None, cmp.EARLY_STOP_NATS)]
 
 
+@pytest.mark.slow
 def test_on_a_real_comparison_the_leader_keeps_its_repeats_and_the_verdict_says_who_was_stopped(real_comparisons):
     """air trails q1 by hundreds of nats on a q1 recording: it is stopped after two repeats, the
     verdict says so, and q1's evidence and the ranking equal the full comparison's exactly."""

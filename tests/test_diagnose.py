@@ -23,6 +23,7 @@ from tests.diagnosis_cases import REFERENCE_CONFIG, diagnosed, free_decay, recor
 RMS_TOLERANCE = 0.1
 
 
+@pytest.mark.slow
 def test_a_free_decay_is_diagnosed_without_an_excitation_time():
     """The reference's q1 hammer test with a tension raising mode 1 by 2 % (P = 4.77 N), cut to a
     free decay from 0.1 s (no force: no phase features, each model's initial state fitted). The
@@ -37,6 +38,7 @@ def test_a_free_decay_is_diagnosed_without_an_excitation_time():
     assert abs(d.final_mismatch.rms_standardized_residual - 1) < RMS_TOLERANCE
 
 
+@pytest.mark.slow
 def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
     """A decaying 80 Hz line between modes 3 and 4 (a mode the beam model does not have), 15 % of
     the signal's RMS, added to the reference's q1 recording."""
@@ -51,7 +53,8 @@ def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
     assert "Unexplained: " in d.to_dict()["summary"]
 
 
-def test_diagnosis_json_has_the_issue_layout():
+@pytest.mark.slow
+def test_diagnosis_json_has_its_summary_layout():
     """plumbing: diagnosis.json's keys, on the cheap BeamModel-made root spring's diagnosis (that the
     spring is named on data the model did not make is tests/acceptance/test_diagnose.py's)."""
     summary = json.loads(json.dumps(diagnosed("root_compliance").to_dict()))

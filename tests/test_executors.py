@@ -89,6 +89,7 @@ def _alive(pid: int) -> bool:
         return False
 
 
+@pytest.mark.slow
 def test_a_comparison_on_a_dask_cluster_equals_the_serial_one(cluster):
     """Every job is seeded from the comparison's seed, not from where it runs: bit-identical."""
     rec, _ = cases.simulated("q1", seed=3, fs=256.0)

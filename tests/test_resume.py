@@ -17,6 +17,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
 from bayesbeam.cli.common import EXIT_NOT_CONVERGED
 from bayesbeam.io import write_recording
@@ -78,6 +79,7 @@ def _fit(out: Path, config: Path, *extra):
     return _bayesbeam("fit", HAMMER, *FIT, "--config", str(config), "--max-steps", str(CAP), "--out", str(out), *extra)
 
 
+@pytest.mark.slow
 def test_fit_resumes_the_killed_chain_bit_for_bit(tmp_path):
     """Killed after m >= 100 saved steps and resumed, the run keeps those m steps unchanged and ends
     where, and as, an uninterrupted run with the same seed ends: the same n steps, every draw and
@@ -120,6 +122,7 @@ def _files(folder: Path) -> dict:
             for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
+@pytest.mark.slow
 def test_batch_rerun_keeps_finished_recordings_and_ends_with_the_same_table(tmp_path):
     """Killed while comparing its second recording, the campaign rerun with --resume leaves the
     first recording's outputs untouched (same bytes, same modification times: not recomputed),

@@ -255,6 +255,7 @@ def _report(case: str, reps: list) -> tuple[str, dict, dict]:
     return "\n".join(lines), inside, ks
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", CASES)
 def test_discretisation_passes_the_fits_refinement_check(replications, case):
     from bayesbeam.inference.fit import SHIFT_TOLERANCE
@@ -278,6 +279,7 @@ def _certification(case: str, reps: list) -> tuple[str, list]:
     return text, uncertified
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", CASES)
 def test_importance_sampling_is_reliable(replications, case):
     """Every draw's weights have Pareto k < 0.7 (after the planned or the further stages)."""
@@ -287,6 +289,7 @@ def test_importance_sampling_is_reliable(replications, case):
     assert not uncertified, certified + "\n" + _report(case, reps)[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", CASES)
 def test_90_percent_intervals_cover_the_truth_at_the_nominal_rate(replications, case):
     """Counts only certified draws: one whose weights are not certified fails the test."""

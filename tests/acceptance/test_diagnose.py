@@ -22,6 +22,8 @@ from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig
 from tests.acceptance import cases
 
+pytestmark = pytest.mark.slow  # minutes of fits: left out of the fast subset (docs/testing.md)
+
 CONFIG = DiagnoseConfig(CompareConfig(FitConfig(n_intervals=None, degree=5), repeats=2, replicates=20),
                         replicates=20)
 #: the map's RMS standardized residual of a right model is 1 up to its own scatter: ~390 band

@@ -141,6 +141,7 @@ def test_check_names_no_unit_when_stated_and_g_when_left_out(lab):
     assert [(c["name"], c["unit"]) for c in left_out["channels"]] == [("tip", "g"), ("mid", "g")], left_out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("order", ["tip_first", "mid_first"])
 def test_the_concealed_mass_is_found_at_the_mid_span_sensor(diagnosed, order):
     """Added: sensor_mass, at the mid-span sensor; the damping re-check ends at q3 with the mass,
@@ -157,6 +158,7 @@ def test_the_concealed_mass_is_found_at_the_mid_span_sensor(diagnosed, order):
     assert interval[0] <= MID_MASS <= interval[1], (interval, summary["summary"])
 
 
+@pytest.mark.slow
 def test_both_orders_agree_on_the_evidence(diagnosed):
     """The same models, the same data: the first comparison ranks the damping models alike (every
     pair whose log evidences lie more than three combined standard errors apart in one order keeps

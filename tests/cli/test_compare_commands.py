@@ -21,6 +21,7 @@ def recordings(tmp_path_factory):
     return [str(p) for p in paths]
 
 
+@pytest.mark.slow
 def test_compare_writes_json_report_and_posteriors(recordings, tmp_path, capsys):
     import arviz as az
 
@@ -45,6 +46,7 @@ def test_bad_input_exits_2_naming_it(recordings, tmp_path, capsys, argv, message
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_batch_on_a_dask_cluster_writes_one_table_and_resumes(recordings, tmp_path, capsys):
     import distributed  # a dependency of bayesbeam itself: missing fails, never skips
     out = tmp_path / "campaign"

@@ -19,6 +19,7 @@ def null(tmp_path_factory):
     return str(write_recording(recording(None), tmp_path_factory.mktemp("recs") / "null"))
 
 
+@pytest.mark.slow
 def test_diagnose_writes_json_report_and_posteriors(null, tmp_path, capsys):
     import arviz as az
 

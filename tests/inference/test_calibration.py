@@ -82,6 +82,7 @@ def replications():
     return cases.run_in_processes(sample_reference, [(seed, WALKERS, STEPS) for seed in SEEDS])
 
 
+@pytest.mark.slow
 def test_90_percent_intervals_cover_the_truth_at_the_nominal_rate(replications):
     names = ["EI", "gamma", "sigma_accel_tip"]
     inside = {n: 0 for n in names}

@@ -62,6 +62,7 @@ def linear_gaussian():
     return terms, priors, log_z, cov @ a.T @ y / 0.01, cov
 
 
+@pytest.mark.slow
 def test_smc_from_the_prior_matches_the_analytic_evidence(linear_gaussian):
     terms, priors, log_z, _, _ = linear_gaussian
     runs = [smc(terms, Reference(priors), np.random.default_rng(k), n_particles=400) for k in range(3)]
@@ -113,6 +114,7 @@ def test_mutation_steps_from_the_acceptance_rate_give_the_same_evidence_with_few
     assert evaluations[1] < 0.75 * evaluations[0], evaluations
 
 
+@pytest.mark.slow
 def test_a_reference_matched_to_posterior_particles_settles_the_evidence_in_few_stages(linear_gaussian):
     """A first pass from a reference 20 posterior sd off and 10 times too narrow needs many stages;
     a second from :func:`matched_reference` (its particles' mean and covariance) needs at most two
@@ -161,6 +163,7 @@ def test_a_band_at_a_prior_edge_is_normalised_and_drawn_as_its_density():
     assert np.all(np.abs(draws[:, 0]) <= 1)
 
 
+@pytest.mark.slow
 def test_smc_from_a_band_reference_matches_the_evidence_at_an_edge():
     """A Gaussian likelihood (sd 0.01) centred 0.005 beyond the upper edge of a uniform prior on
     [0, 1], the posterior a truncated Gaussian against the edge: log Z is log of the likelihood's
@@ -208,6 +211,7 @@ def dynesty_log_z(post, seed):
     return sampler.results.logz[-1], sampler.results.logzerr[-1]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", ["air", "q1"])
 def test_smc_agrees_with_dynesty_on_beam_models(model):
     rec, sd = cases.simulated("q1", seed=3, fs=256.0)

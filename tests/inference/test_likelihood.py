@@ -431,6 +431,7 @@ def test_hammer_example_residual_is_sensor_noise_once_force_noise_is_marginalise
     assert 0.94 < ratios[True] < 1.08
 
 
+@pytest.mark.slow
 def test_force_noise_marginalisation_calibrates_the_estimates():
     """Statistical check over R = 12 noise draws (seeds 0-11): the cheap q1 case at 512 Hz for
     2 s, sensor noise 0.5 % of the signal RMS, force noise 1 % of the pulse peak (the level of

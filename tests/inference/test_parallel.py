@@ -103,6 +103,7 @@ def pooled_fit(air_case):
         p.join()
 
 
+@pytest.mark.slow
 def test_fit_with_two_local_processes_gives_a_valid_posterior(pooled_fit):
     """Finite log posterior at every stored draw, a sane acceptance, and the truth within the
     99 % interval of EI, gamma and sigma (per-parameter miss probability 1 %)."""
@@ -116,6 +117,7 @@ def test_fit_with_two_local_processes_gives_a_valid_posterior(pooled_fit):
         assert lo < truth[i] < hi, (name, lo, truth[i], hi)
 
 
+@pytest.mark.slow
 def test_fit_with_an_int_pool_leaves_no_worker_processes(pooled_fit):
     """fit creates the pool and drops it on return; CPython then collects it at once and its
     finaliser terminates the workers (fit never calls close()/terminate() itself)."""

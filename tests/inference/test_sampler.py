@@ -35,6 +35,7 @@ def test_effects_start_where_they_vanish():
     assert x0["gamma"] == pytest.approx(priors["gamma"].median())
 
 
+@pytest.mark.slow
 def test_global_search_finds_a_tension():
     """q1 plus a tension raising mode 1 by about 2 % (P = 0.25 of the buckling load), 2 % noise.
     Started from the prior medians (P = 4.75 buckling loads) the search ended at EI 31.6 N m^2

@@ -45,6 +45,7 @@ def test_the_set_up_priors_are_uniform_over_the_tolerances():
         assert prior.log_density(low - 1e-6) == -np.inf and prior.log_density(high + 1e-6) == -np.inf
 
 
+@pytest.mark.slow
 def test_a_fit_recovers_a_shifted_sensor_within_its_tolerance():
     """The reference simulator's paper beam (q1, hammer at 0.75 m, 2 % sensor and 0.5 % force
     noise) with its accelerometer truly at 0.62 m; beam.toml states 0.60 m +- 0.04 m, so the true

@@ -19,7 +19,9 @@ from bayesbeam.report.diagnosis import SECTIONS, lead, write_report
 from tests.diagnosis_cases import diagnosed
 
 
-@pytest.fixture(scope="module", params=["root_compliance", None], ids=["root_compliance", "null"])
+#: the root spring's diagnosis takes a minute (its rounds of fits): every test of its report is slow
+@pytest.fixture(scope="module", params=[pytest.param("root_compliance", marks=pytest.mark.slow), None],
+                ids=["root_compliance", "null"])
 def report(request, tmp_path_factory):
     """(path of the report, its HTML, the Diagnosis)."""
     d = diagnosed(request.param)
@@ -131,6 +133,7 @@ def test_candidates_and_decisions(report):
         assert "No augmented model was fitted" in part
 
 
+@pytest.mark.slow
 def test_models_not_fitted_and_the_damping_recheck_are_shown():
     """Without --model the summary carries the damping re-check and the models left out; both get
     a table in the candidates section (the cheap diagnoses were run with --model: fill them in)."""

@@ -422,6 +422,7 @@ def test_friction_matches_the_exact_stick_slip_history():
         assert np.max(np.abs(sol.final_state - x_end)) < state_tol * np.max(np.abs(x_end))
 
 
+@pytest.mark.slow
 def test_forced_friction_matches_solve_ivp():
     """Hammer test with stick-slip (dozens of stick phases and reversals): the integrator's
     tip displacement at its nodes against solve_ivp's event-driven solution of the same
@@ -590,6 +591,7 @@ def test_release_before_the_first_sample_shifts_the_record():
     assert np.all(np.max(np.abs(y5[:-60] - y0[5:-55]), axis=0) < 1e-9 * scale)
 
 
+@pytest.mark.slow
 def test_root_spring_and_friction_compose_to_the_event_driven_solution():
     """root_compliance + dry_friction on a hammer test with stick-slip: the integrator's tip
     displacement against solve_ivp's event-driven solution of the composed equations (M, D, K
