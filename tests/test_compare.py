@@ -13,7 +13,6 @@ from bayesbeam.compare import (
     strength,
 )
 
-
 #: Kass & Raftery (1995), Table in section 3.2, on their 2 ln B scale: 0-2 not worth more than a bare
 #: mention, 2-6 positive, 6-10 strong, > 10 very strong (written here from the paper, not the package)
 KASS_RAFTERY_2LNB = ((2.0, "positive"), (6.0, "strong"), (10.0, "very strong"))

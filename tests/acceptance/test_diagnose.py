@@ -18,7 +18,6 @@ import pytest
 
 from bayesbeam.compare import CompareConfig
 from bayesbeam.diagnose import DECISIVE, DiagnoseConfig, diagnose, flags
-from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig
 from tests.acceptance import cases
 
@@ -32,13 +31,6 @@ CONFIG = DiagnoseConfig(CompareConfig(FitConfig(n_intervals=None, degree=5), rep
 RMS_TOLERANCE = 0.1
 #: the concealed effects' parameters (the reference's names are the catalogue's)
 PARAMETER = {"root_compliance": "k_theta", "measurement_delay": "tau", "sensor_mass": "m_s"}
-
-
-@pytest.fixture(scope="module")
-def executor():
-    ex = LocalExecutor(2)
-    yield ex
-    ex.close()
 
 
 @cache

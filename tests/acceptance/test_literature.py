@@ -110,7 +110,6 @@ from scipy import stats
 
 from bayesbeam.compare import CompareConfig, compare
 from bayesbeam.diagnose import DiagnoseConfig, diagnose
-from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
 from bayesbeam.io.recording import MATERIALS
 from tests.acceptance.cases import NOISE, NOMINAL_OVER_TRUE
@@ -243,13 +242,6 @@ def laplace_draws(problem, optimum, rng, n: int = 4000) -> dict:
     z = rng.multivariate_normal(optimum.theta, optimum.covariance, n)
     priors = problem.posterior.priors
     return {name: priors[i].to_value(z[:, i]) for i, name in enumerate(problem.posterior.names)}
-
-
-@pytest.fixture(scope="module")
-def executor():
-    ex = LocalExecutor(2)
-    yield ex
-    ex.close()
 
 
 @pytest.fixture(scope="module")

@@ -35,7 +35,6 @@ from bayesbeam.checks.survey import survey
 from bayesbeam.checks.units import unit_check
 from bayesbeam.compare import CompareConfig
 from bayesbeam.diagnose import DiagnoseConfig, diagnose
-from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig
 from bayesbeam.io import Sensor, TipBody, load_recording
 from bayesbeam.io.importer import import_file
@@ -82,8 +81,8 @@ def export(rec, path, *, units: bool):
 def description(rec, path, order):
     """A beam description naming each channel's column but no unit; the sensors in ``order``."""
     beam, exc = rec.beam, rec.excitation
-    text = [f"[beam]\nlength = {beam.length!r}\ndensity = {beam.density!r}\narea = {beam.area!r}\n"
-            f"second_moment = {beam.second_moment!r}\nmodulus = {beam.modulus!r}\n",
+    text = [(f"[beam]\nlength = {beam.length!r}\ndensity = {beam.density!r}\narea = {beam.area!r}\n"
+             f"second_moment = {beam.second_moment!r}\nmodulus = {beam.modulus!r}\n"),
             f"[tip]\nmass = {TIP_BLOCK.mass!r}\nrotary_inertia = {TIP_BLOCK.rotary_inertia!r}\n",
             f'[excitation]\nkind = "force"\nlocation = {exc.location!r}\ncolumn = "{COLUMN["force"]}"\n']
     for name in order:
@@ -109,13 +108,6 @@ def lab(tmp_path_factory):
             imported = import_file(source, folder / name, beam=description(rec, folder / f"{name}.toml", order))
             out[name] = load_recording(imported)
     return out
-
-
-@pytest.fixture(scope="module")
-def executor():
-    ex = LocalExecutor(2)
-    yield ex
-    ex.close()
 
 
 @pytest.fixture(scope="module")
