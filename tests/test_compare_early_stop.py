@@ -16,7 +16,7 @@ from bayesbeam.compare import CompareConfig, beaten, compare
 from bayesbeam.executors import SerialExecutor
 from bayesbeam.inference.evidence import combine_runs
 from bayesbeam.inference.fit import FitConfig
-from tests.inference import cases
+from tests.acceptance import cases as ac
 
 #: a stand-in run's particles' log likelihood lies this far above its log Z (the Occam factor)
 OCCAM = 5.0
@@ -118,8 +118,9 @@ def test_a_rival_fitted_before_can_lead_but_is_never_stopped_or_returned(monkeyp
 
 @pytest.fixture(scope="module")
 def real_comparisons():
-    """air and q1 compared on a short simulated q1 recording, with and without early stop."""
-    rec, _ = cases.simulated("q1", seed=3, fs=256.0)
+    """air and q1 compared on a reference q1 hammer test (tests.reference; 1 s at 256 Hz), with and
+    without early stop."""
+    rec, _ = ac.hammer("q1", seed=3, fs=256.0)
     base = CompareConfig(FitConfig(n_intervals=6), repeats=3, replicates=10)
     return [compare(rec, ["air", "q1"], replace(base, early_stop=stop))[1]
             for stop in (None, cmp.EARLY_STOP_NATS)]

@@ -25,7 +25,7 @@ import numpy as np
 
 from bayesbeam.io import Beam, Sensor
 from tests.inference import cases
-from tests.reference import Hammer, Numerics, Release, record
+from tests.reference import Hammer, Noise, Numerics, Release, record
 from tests.reference.recordings import ALU_DAMPING, NOISE, PAPER_DAMPING
 
 #: the beam.toml's modulus over the true one
@@ -55,9 +55,10 @@ def _setting(beam_name: str) -> dict:
 
 @cache
 def hammer(model: str, beam_name: str = "paper", seed: int = 1, effect: str | None = None,
-           displacement: bool = False):
+           displacement: bool = False, noise: Noise = NOISE, fs: float | None = None):
     """A hammer test of ``model``'s damping (optionally with a concealed ``effect``, or a second,
-    displacement channel at mid-span) and its truth: (Recording, {parameter: true value})."""
+    displacement channel at mid-span; ``noise`` other than :data:`NOISE`; sampled at ``fs`` Hz
+    instead of the setting's) and its truth: (Recording, {parameter: true value})."""
     s = _setting(beam_name)
     beam, damping = s["beam"], DAMPING[beam_name][model]
     sensors = None
@@ -66,7 +67,7 @@ def hammer(model: str, beam_name: str = "paper", seed: int = 1, effect: str | No
                    Sensor("disp_mid", 0.5 * beam.length, "displacement", "disp_mid"))
     effects = EFFECTS[effect] if effect else None
     rec = record(_nominal(beam), damping, EI=beam.nominal_EI, tip=s["tip"], excitation=s["excitation"],
-                 fs=s["fs"], duration=s["duration"], effects=effects, sensors=sensors, noise=NOISE, seed=seed,
+                 fs=fs or s["fs"], duration=s["duration"], effects=effects, sensors=sensors, noise=noise, seed=seed,
                  numerics=s.get("numerics", Numerics()),
                  name=f"{beam_name}_{model}" + (f"_{effect}" if effect else ""))
     return rec, {"EI": beam.nominal_EI, **damping, **(effects or {})}

@@ -6,7 +6,7 @@ import pytest
 
 from bayesbeam.cli import main
 from bayesbeam.io import write_recording
-from tests.inference import cases
+from tests.acceptance import cases as ac
 
 CHEAP = ["--models", "air,q1", "--n-intervals", "6", "--repeats", "2", "--replicates", "10", "--quiet"]
 
@@ -16,7 +16,7 @@ def recordings(tmp_path_factory):
     root = tmp_path_factory.mktemp("recs")
     paths = []
     for name, seed in (("hit_a", 3), ("hit_b", 4)):
-        rec, _ = cases.simulated("q1", seed=seed, fs=256.0)
+        rec, _ = ac.hammer("q1", seed=seed, fs=256.0)                # tests.reference: 1 s at 256 Hz
         paths.append(write_recording(rec, root / name))
     return [str(p) for p in paths]
 

@@ -1,6 +1,6 @@
 """The comparison report: one self-contained HTML file whose every figure loads in a browser.
 
-A real (small) comparison of "air" and "q1" on a cheap simulated q1 recording feeds the report;
+A real (small) comparison of "air" and "q1" on a reference q1 hammer test (tests.reference) feeds the report;
 headless Chromium renders it and the report's own script counts the images that decoded.
 Chromium is a test requirement, not an option: CI's .ci/run installs it from Debian's packages.
 """
@@ -19,7 +19,7 @@ from bayesbeam.compare import CompareConfig, compare
 from bayesbeam.inference.fit import FitConfig
 from bayesbeam.inference.likelihood import BandProjection
 from bayesbeam.report.comparison import SECTIONS, noise_level, write_report
-from tests.inference import cases
+from tests.acceptance import cases as ac
 
 MODELS = ("air", "q1")
 
@@ -27,7 +27,7 @@ MODELS = ("air", "q1")
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     """(path of the report, its HTML, the summary) of a two-model comparison."""
-    rec, _ = cases.simulated("q1", seed=3)
+    rec, _ = ac.hammer("q1", seed=3)                     # tests.reference: the paper's beam, 1 s at 512 Hz
     results, summary = compare(rec, list(MODELS), CompareConfig(FitConfig(n_intervals=6), repeats=2, replicates=20))
     path = write_report(results, summary, tmp_path_factory.mktemp("report") / "report.html")
     return path, path.read_text(encoding="utf-8"), summary
