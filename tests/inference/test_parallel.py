@@ -105,16 +105,14 @@ def pooled_fit(air_case):
 
 @pytest.mark.slow
 def test_fit_with_two_local_processes_gives_a_valid_posterior(pooled_fit):
-    """Finite log posterior at every stored draw, a sane acceptance, and the truth within the
-    99 % interval of EI, gamma and sigma (per-parameter miss probability 1 %)."""
-    result, sd, _, _ = pooled_fit
+    """Plumbing: a finite log posterior at every stored draw, a sane acceptance and one finite
+    value per parameter and draw (whether intervals cover the truth is asserted on reference
+    recordings: tests/acceptance/test_fit.py and test_calibration.py)."""
+    result, _, _, _ = pooled_fit
     assert np.all(np.isfinite(result.chains.log_prob))
     assert 0.1 < result.chains.acceptance < 0.9
-    values = result.values().reshape(-1, 3)
-    truth = [cases.TRUTH["air"]["EI"], cases.TRUTH["air"]["gamma"], sd]
-    for i, name in enumerate(result.problem.posterior.names):
-        lo, hi = np.quantile(values[:, i], [0.005, 0.995])
-        assert lo < truth[i] < hi, (name, lo, truth[i], hi)
+    values = result.values()
+    assert values.shape[-1] == len(result.problem.posterior.names) and np.all(np.isfinite(values))
 
 
 @pytest.mark.slow
