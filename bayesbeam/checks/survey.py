@@ -33,6 +33,7 @@ from bayesbeam.checks.discrepancy import PERSISTENT, line_persistence, mains_har
 from bayesbeam.checks.units import report_text as units_text
 from bayesbeam.checks.units import unit_check
 from bayesbeam.inference.fit import DEFAULT_BAND
+from bayesbeam.io.units import SI_UNITS
 from bayesbeam.modal.eigen import natural_frequencies_hz
 from bayesbeam.response.linear import PASSBAND
 from bayesbeam.response.signals import find_pulses
@@ -56,8 +57,6 @@ SEGMENTS = 40
 END_FACTOR = 3.0
 #: the most nominal modes computed
 MAX_MODES = 40
-#: SI unit of each sensor quantity
-UNITS = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
 
 
 @dataclass
@@ -121,7 +120,7 @@ def describe(rec) -> dict:
                 "m_T_tolerance_kg": setup.tip_mass_tolerance, "J_tolerance_kg_m2": setup.tip_rotary_inertia_tolerance},
         "excitation": excitation,
         "sensors": [{"name": s.name, "location_m": s.location, "quantity": s.quantity, "column": s.column,
-                     "unit": UNITS[s.quantity], "stated_unit": s.unit, "mass_kg": mass, "location_tolerance_m": tolerance}
+                     "unit": SI_UNITS[s.quantity], "stated_unit": s.unit, "mass_kg": mass, "location_tolerance_m": tolerance}
                     for s, mass, tolerance in zip(rec.sensors, setup.sensor_masses, setup.location_tolerances)],
         "fs_hz": rec.fs, "n_samples": rec.n_samples, "duration_s": rec.n_samples / rec.fs,
     }
@@ -181,7 +180,7 @@ def _channel(rec, j: int, spectrum: Spectrum, nominal: np.ndarray) -> dict:
     peaks = spectral_peaks(spectrum, floor, rec.fs)
     x = rec.signals[:, j]
     return {
-        "name": sensor.name, "unit": UNITS[sensor.quantity],
+        "name": sensor.name, "unit": SI_UNITS[sensor.quantity],
         "rms": float(np.sqrt(np.mean((x - x.mean()) ** 2))),
         "noise_floor_density": floor,
         "noise_sd": float(np.sqrt(floor * rec.fs / 2)),

@@ -45,6 +45,7 @@ from scipy.fft import next_fast_len
 from bayesbeam.io.units import parse_unit, units_of
 from bayesbeam.modal.eigen import tip_body_betas
 from bayesbeam.modal.frf import fit_rational_fraction
+from bayesbeam.response.linear import ORDERS
 from bayesbeam.response.signals import impact_window
 
 #: a channel is as stated when its ratio to the nominal model lies within this factor over the judged
@@ -71,8 +72,6 @@ MIN_LINES = 16
 #: the fitted pole must lie this close to the peak (relative), its windowed damping ratio below the
 #: second number: otherwise the fit found noise or a neighbour, and the mode is not judged
 POLE_MATCH, MAX_WINDOWED_ZETA = 0.05, 0.3
-#: the time derivative of the deflection each quantity is
-ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
 
 
 # ---------------------------------------------------------------------------- nominal modes
