@@ -577,14 +577,32 @@ class BeamModel:
         a response a hundred times smaller than the signal, so its own nonlinearity is
         negligible).
         """
+        y, unit = self._with_unit_response(params)
+        return y, unit_sample_responses(self.grid, unit, index)
+
+    def sample_spectra(self, position: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """Input spectra (n_freq, K) on the grid of K force inputs, input k being the samples
+        ``weights[:, k]`` (N, in samples of this record) at the fractional sample ``position``
+        (J,): a sample between two of the record is a band-limited impulse at its own time."""
+        delays = np.stack([self.grid.delay(p * self.recording.dt) for p in position], axis=1)
+        return delays @ weights
+
+    def simulate_with_inputs(self, params, spectra: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`simulate`, responses (n_samples, n_sensors, K) to the force inputs of
+        :meth:`sample_spectra`) for a measured-force recording; :meth:`simulate_with_impulses`
+        for inputs between the record's samples (its notes on nonlinear effects hold)."""
+        y, unit = self._with_unit_response(params)
+        return y, self.grid.samples(unit[:, :, None] * spectra[:, None, :])
+
+    def _with_unit_response(self, params) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`simulate`, the spectrum (n_freq, n_sensors) of the response to a unit force
+        sample at t = 0) from one evaluation of the transfer function."""
         if self.recording.excitation.kind != "force":
             raise ValueError("force-sample responses need a recording with a measured force")
         values = self.values(params)
-        system = self._system(values)
-        h, static = self._placed_transfer(system, values)
+        h, static = self._placed_transfer(self._system(values), values)
         y = self.simulate(values) if any(not e.linear for e in self.effects) else self._output(h, static, values)
-        columns = unit_sample_responses(self.grid, h * self._delayed(self._unit_drive, values), index)
-        return y, columns
+        return y, h * self._delayed(self._unit_drive, values)
 
     def _delayed(self, drive: np.ndarray, values: dict[str, float]) -> np.ndarray:
         """``drive`` with the response channels' delay e^{-s tau} applied."""
@@ -666,7 +684,7 @@ class BeamModel:
         """
         if not self.batches:
             return np.stack([self.simulate(p) for p in params], axis=1)
-        return self._batch(params, None)[0]
+        return self._batch(params)[0]
 
     def simulate_with_impulse_batch(self, params: Sequence, lags: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(:meth:`simulate_batch`, the response (len(lags), P, n_sensors) to a unit force sample (N)
@@ -681,8 +699,18 @@ class BeamModel:
                              "measured force")
         return self._batch(params, np.asarray(lags))
 
-    def _batch(self, params: Sequence, lags: np.ndarray | None):
-        """(outputs (n, P, c), unit-sample responses at ``lags`` (len(lags), P, c) or None)."""
+    def simulate_with_input_batch(self, params: Sequence, spectra: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`simulate_batch`, responses (P, n_sensors, K, n_samples) to the force inputs of
+        :meth:`sample_spectra`, time last) of a linear model of a measured-force recording."""
+        if self.recording.excitation.kind != "force" or not self.batches:
+            raise ValueError("batched force-input responses need a linear model of a recording with a "
+                             "measured force")
+        y, unit = self._batch(params)
+        return y, self.grid.samples_last(unit.transpose(1, 2, 0)[:, :, None, :] * spectra.T)
+
+    def _batch(self, params: Sequence, lags: np.ndarray | None = None):
+        """(outputs (n, P, c), the spectra (n_freq, P, c) of the response to a unit force sample at
+        t = 0, or its samples at ``lags`` (len(lags), P, c) when given)."""
         values = [self.values(p) for p in params]
         systems = [self._system(v) for v in values]
         placed = [self._placed_transfer(s, v) for s, v in zip(systems, values)]
@@ -690,9 +718,9 @@ class BeamModel:
         y = self.grid.samples(h * self._delayed_batch(self.drive, values))
         if self.recording.excitation.kind == "release":
             y += np.stack([static for _, static in placed])[None]
-        if lags is None:
-            return y, None
         unit = h * self._delayed_batch(self._unit_drive, values)
+        if lags is None:
+            return y, unit
         return y, lagged_samples(self.grid, fft.irfft(unit, self.grid.n_fft, axis=0), lags)
 
     def _delayed_batch(self, drive: np.ndarray, values: Sequence[dict]) -> np.ndarray:

@@ -599,7 +599,10 @@ def latent_force(lik, params: dict, noise: dict) -> dict:
     _, _, z, psi, s2 = lik._latent(params)
     coef = _marginal(z, psi, s2, lik.variance(noise))[1]
     chi2 = float(np.sum(coef**2 / s2))
-    slope = np.gradient(lik.model.force, lik.model.recording.dt)[lik.force_noise.index]
+    # the force's slope at the kept recorded samples, which lie between a decimated record's
+    slope = np.gradient(lik.model.force, lik.model.recording.dt)
+    slope = np.interp(lik.force_noise.position, np.arange(slope.size), slope)
+    force = lik.force_noise.recorded(coef)
     z_ref = lik.projection.project(lik.predict(params, noise))
     # the share of the prediction the latent force carries beyond what its noise would (the
     # excess fraction of chi2): noise alone carries a few percent, none of it in excess
@@ -607,7 +610,7 @@ def latent_force(lik, params: dict, noise: dict) -> dict:
     carried *= np.sqrt(max(1.0 - coef.size / chi2, 0.0)) if chi2 > 0 else 0.0
     return {"chi2": chi2, "dof": int(coef.size), "p_value": float(stats.chi2.sf(chi2, coef.size)),
             "significant": bool(stats.chi2.sf(chi2, coef.size) < ALPHA / 3),
-            "delay_s": float(-np.dot(coef, slope) / np.dot(slope, slope)) if np.any(slope) else None,
+            "delay_s": float(-np.dot(force, slope) / np.dot(slope, slope)) if np.any(slope) else None,
             "share": float(np.max(carried))}
 
 

@@ -133,6 +133,11 @@ class FrequencyGrid:
         x = fft.irfft(spectrum, self.n_fft, axis=0)[: self.n]
         return x / self.damp.reshape((-1,) + (1,) * (x.ndim - 1))
 
+    def samples_last(self, spectrum: np.ndarray) -> np.ndarray:
+        """:meth:`samples` of spectra with frequency on the last axis (..., n_freq) -> (..., n):
+        for many signals at once, where contiguous transforms take a third of the time."""
+        return fft.irfft(spectrum, self.n_fft, axis=-1)[..., : self.n] / self.damp
+
 
 def drive_spectrum(grid: FrequencyGrid, orders, input_spectrum: np.ndarray) -> np.ndarray:
     """Parameter-free factor of every output: s^q W(w) U(s), array (n_freq, n_out).

@@ -47,7 +47,7 @@ from tests.acceptance.test_calibration import CASES
 TOLERANCE = 0.1
 #: Newton steps to the peak: the last moves it by < 0.001 sd (asserted)
 NEWTON_STEPS = 3
-MODEL, SETTING, DEGREE, N = CASES["q3"]
+MODEL, SETTING, DEGREE, N, _ = CASES["q3"]
 
 
 class _NoiseHeld:
