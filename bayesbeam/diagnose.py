@@ -483,7 +483,11 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
 
     Each is optimised from its global search and, as well, from the current model's optimum with
     the effect at the signature's value: the augmented model nests the current one, so its
-    optimum must be at least as high, and a global search alone can end in a worse mode.
+    optimum must be at least as high, and a global search alone can end in a worse mode. That
+    start's EI is the current model's, which may have absorbed the effect (a rigid root on a
+    softer beam stands in for a compliant root in the first mode), so EI is also re-determined
+    there with the effect and every other parameter held, and polished from as well
+    (:func:`~bayesbeam.inference.fit.local_starts`); the highest optimum is kept.
     """
     specs = [f"{current.name}+{c.effect}" for c in candidates]
     starts = {s: _probe_values(current, c) for s, c in zip(specs, candidates) if c.value is not None}
