@@ -64,6 +64,7 @@ class Mutant:
 FRACTIONAL = "bayesbeam/physics/mechanisms/fractional.py"
 FRACTIONAL_LINE = "return -c_f * np.power(np.asarray(s, dtype=complex), nu)"
 THERMOELASTIC = "bayesbeam/physics/mechanisms/thermoelastic.py"
+SIGNALS = "bayesbeam/response/signals.py"
 SANITY = "tests/reference/test_literature.py::test_sanity_against_bayesbeam_simulate"
 
 MUTANTS = (
@@ -92,12 +93,21 @@ MUTANTS = (
            'return values["c_theta"] * np.outer(e, e)', 'return 0.5 * values["c_theta"] * np.outer(e, e)',
            ("tests/physics/effects/test_root_damping.py", SANITY),
            "root dashpot c_theta times 0.5"),
-    Mutant("force_noise_variance", "bayesbeam/response/signals.py",
-           "return ForceNoise(sd, index + int(lead), sd**2 / factor * mean_w2[index])",
-           "return ForceNoise(sd, index + int(lead), 1.2 * sd**2 / factor * mean_w2[index])",
+    Mutant("force_noise_variance", SIGNALS,
+           "noise = ForceNoise(sd, position, sd**2 * window[kept] ** 2)",
+           "noise = ForceNoise(sd, position, 1.2 * sd**2 * window[kept] ** 2)",
            ("tests/response/test_signals.py",
             "tests/inference/test_likelihood.py::test_force_noise_variance_is_calibrated_on_reference_recordings"),
            "ForceNoise variance times 1.2"),
+    Mutant("force_noise_decimated_variance", SIGNALS,
+           "return sd[:, None] * rt[:k].T", "return 1.1 * sd[:, None] * rt[:k].T",
+           ("tests/response/test_signals.py",),
+           "a decimated fit's force-noise inputs 1.1 x too strong (variance 1.21)"),
+    Mutant("force_noise_grouped", SIGNALS,
+           "noise = ForceNoise(sd, position, np.ones(mixing.shape[1]), mixing, factor)",
+           "noise = ForceNoise(sd, np.rint(position), np.ones(mixing.shape[1]), mixing, factor)",
+           ("tests/response/test_signals.py",),
+           "a decimated fit's recorded force samples moved onto the nearest decimated samples"),
     Mutant("kass_raftery_swap", "bayesbeam/compare.py",
            '(3.0, "strong"), (1.0, "positive")', '(1.0, "strong"), (3.0, "positive")',
            ("tests/test_compare.py",),
