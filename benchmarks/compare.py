@@ -6,8 +6,8 @@ the full path (every repeat of every model, three accepted SMC moves per particl
 on ``data/examples/paper_q3_hammer`` (4 s at 2048 Hz, the paper's beam, q3 damping). Both paths run
 in the same process one after the other, with the same seeds: the **baseline** with
 ``early_stop=None, min_moved=None``, then the defaults (repeats of decisively beaten models
-skipped, :func:`bayesbeam.compare.beaten`) or, with ``--min-moved P``, the defaults with SMC
-mutation steps from the acceptance rate (:data:`bayesbeam.compare.MIN_MOVED`). Printed: wall time
+skipped, :func:`bayesbeam.comparison.beaten`) or, with ``--min-moved P``, the defaults with SMC
+mutation steps from the acceptance rate (:data:`bayesbeam.comparison.MIN_MOVED`). Printed: wall time
 and SMC likelihood evaluations of each
 and their ratios (evaluations do not depend on the machine's load, wall time does), each model's
 log evidence under both with the difference in combined standard errors, and whether the
@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import tables  # benchmarks/tables.py: the script's folder is first on sys.path
 
-from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare
+from bayesbeam.comparison import DEFAULT_MODELS, CompareConfig, compare
 from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig
 from bayesbeam.io import load_recording

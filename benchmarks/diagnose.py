@@ -24,8 +24,8 @@ from pathlib import Path
 
 import tables  # benchmarks/tables.py: the script's folder is first on sys.path
 
-from bayesbeam.compare import CompareConfig
-from bayesbeam.diagnose import DiagnoseConfig, diagnose
+from bayesbeam.comparison import CompareConfig
+from bayesbeam.diagnosis import DiagnoseConfig, diagnose
 from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig
 from bayesbeam.io import load_recording

@@ -24,8 +24,8 @@ import compare as compare_benchmark  # benchmarks/compare.py: the script's folde
 import diagnose as diagnose_benchmark
 from tables import RESULTS
 
-from bayesbeam.compare import DEFAULT_MODELS, compare
-from bayesbeam.diagnose import diagnose
+from bayesbeam.comparison import DEFAULT_MODELS, compare
+from bayesbeam.diagnosis import diagnose
 from bayesbeam.executors import SerialExecutor
 from bayesbeam.io import load_recording
 

@@ -21,7 +21,7 @@ RESULTS = HERE / "results"
 README = HERE / "README.md"
 #: the benchmarks with a block in README.md, in its order
 NAMES = ("forward", "effects", "sampling", "batch", "compare", "compare_full", "diagnose",
-         "diagnose_paper_quadratic_drag", "diagnose_paper_dry_friction", "basis", "ppc")
+         "diagnose_paper_quadratic_drag", "diagnose_paper_dry_friction", "from_comparison", "basis", "ppc")
 #: results kept under another name than their script's (name -> script): the same benchmark at another setting
 SCRIPTS = {"compare_full": "compare", "diagnose_paper_quadratic_drag": "diagnose",
            "diagnose_paper_dry_friction": "diagnose"}

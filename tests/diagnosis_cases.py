@@ -22,8 +22,8 @@ from functools import cache
 
 import numpy as np
 
-from bayesbeam.compare import CompareConfig
-from bayesbeam.diagnose import DiagnoseConfig, diagnose
+from bayesbeam.comparison import CompareConfig
+from bayesbeam.diagnosis import DiagnoseConfig, diagnose
 from bayesbeam.inference.fit import FitConfig
 from tests.acceptance import cases as ac
 from tests.inference import cases

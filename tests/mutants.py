@@ -108,9 +108,9 @@ MUTANTS = (
            "noise = ForceNoise(sd, np.rint(position), np.ones(mixing.shape[1]), mixing, factor)",
            ("tests/response/test_signals.py",),
            "a decimated fit's recorded force samples moved onto the nearest decimated samples"),
-    Mutant("kass_raftery_swap", "bayesbeam/compare.py",
+    Mutant("kass_raftery_swap", "bayesbeam/comparison.py",
            '(3.0, "strong"), (1.0, "positive")', '(1.0, "strong"), (3.0, "positive")',
-           ("tests/test_compare.py",),
+           ("tests/test_comparison.py",),
            "Kass & Raftery thresholds 1 and 3 swapped (KASS_RAFTERY)"),
 )
 BY_NAME = {m.name: m for m in MUTANTS}

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from bayesbeam.compare import CompareConfig, compare
+from bayesbeam.comparison import CompareConfig, compare
 from bayesbeam.executors import DaskExecutor, LocalExecutor, SerialExecutor, get_executor
 from bayesbeam.inference.fit import FitConfig
 from tests.inference import cases

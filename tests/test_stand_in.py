@@ -1,4 +1,4 @@
-"""The stand-in rule of the diagnosis (bayesbeam.diagnose.stand_in, docs/diagnosis.md) on constructed trials.
+"""The stand-in rule of the diagnosis (bayesbeam.diagnosis.stand_in, docs/diagnosis.md) on constructed trials.
 
 An effect whose posterior median lies outside what the stated set-up allows is reported as a
 stand-in, not as missing physics found. The allowed ranges are computed here from the set-up's
@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesbeam.diagnose import Diagnosis, Trial, _trial_entry, paragraph, stand_in
+from bayesbeam.diagnosis import Diagnosis, Trial, _trial_entry, paragraph, stand_in
 from bayesbeam.io import Sensor, TipBody
 from tests.inference import cases
 
@@ -117,7 +117,7 @@ def test_an_effect_within_the_set_up_is_a_finding():
 
 
 @pytest.mark.parametrize(("median", "words", "not_words"), [
-    (0.080, "Not a finding: sensor_mass at accel_tip stands in for a structural mismatch", "left out of this recording"),
+    (0.080, "Not a finding: sensor_mass at accel_tip is a stand-in", "left out of this recording"),
     (0.0065, "What the damping model q1 left out of this recording: point mass", "Not a finding")])
 def test_the_reports_lead_keeps_a_stand_in_apart_from_the_findings(median, words, not_words):
     from bayesbeam.report.diagnosis import lead
@@ -143,7 +143,7 @@ def given(median):
 def test_an_effect_given_with_the_baseline_is_judged_by_the_same_rule(median, expected):
     """The set-up bounds a sensor mass the user named as it bounds one the diagnosis adds: 80 g on
     a stated 6 g accelerometer is a stand-in whether or not the catalogue search put it there."""
-    from bayesbeam.diagnose import given_stand_ins
+    from bayesbeam.diagnosis import given_stand_ins
     from bayesbeam.report.diagnosis import lead
 
     d = given(median)
@@ -154,4 +154,4 @@ def test_an_effect_given_with_the_baseline_is_judged_by_the_same_rule(median, ex
     model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 100.0}
     summary = {"baseline": {**model, "model": "q1+sensor_mass"}, "unexplained": False, "candidates": [],
                "final": {**model, "model": "q1+sensor_mass"}, "given_stand_ins": verdicts}
-    assert ("Not a finding: the given sensor_mass stands in" in lead(summary)[0]) == expected
+    assert ("Not a finding: sensor_mass is a stand-in" in lead(summary)[0]) == expected

@@ -651,6 +651,17 @@ def misfit_share(region: dict, energy: tuple, spec: Spectrogram, channels) -> fl
     return float(max(np.sqrt(max(float(excess[i].sum()), 0.0) / float(held[i].sum())) for i in cells))
 
 
+def share_words(share: float) -> str:
+    """A region's ``misfit_share`` in words. The share is unbounded: the misfit is measured against
+    the signal the fitted model and its noise put in the region, and where the model puts little
+    (a line or a mode it lacks) the misfit exceeds it; so a share of 1 or more reads as a multiple
+    ('the misfit is 3.6 x the signal the model puts there'), never as a percentage over 100."""
+    percent = 100 * share
+    if round(percent) >= 100:
+        return f"the misfit is {share:.2g} x the signal the model puts there"
+    return f"the misfit is {percent:{'.2g' if percent < 10 else '.0f'}} % of the signal the model puts there"
+
+
 def _regions(spec: Spectrogram, lik, modes, s: Setting, params) -> list[dict]:
     """Connected flagged cells of each sensor, with the note of the mode they cover or of the line."""
     out = []

@@ -28,7 +28,7 @@ def add_arguments(p) -> None:
 
 
 def run(args) -> int:
-    from bayesbeam.compare import compare
+    from bayesbeam.comparison import compare
     from bayesbeam.inference.sampler import stderr_progress
     from bayesbeam.report.compare_outputs import write_comparison
     from bayesbeam.report.fit_outputs import write_json

@@ -145,7 +145,7 @@ def model_spec(spec: str, effects, option: str = "--model") -> str:
 
 def check_model(spec: str, option: str) -> None:
     """UsageError naming ``option`` unless ``spec`` names known mechanisms and effects that go together."""
-    from bayesbeam.diagnose import combinable
+    from bayesbeam.diagnosis import combinable
     from bayesbeam.model import resolve_model
 
     try:

@@ -6,7 +6,6 @@ from bayesbeam.cli.common import (
     add_effect_option,
     add_out_options,
     add_run_options,
-    job_executor,
     model_spec,
     output_folder,
     positive_int,
@@ -25,7 +24,7 @@ def add_arguments(p) -> None:
 
 def add_comparison_options(p) -> None:
     """Options shared with ``bayesbeam batch``."""
-    from bayesbeam.compare import DEFAULT_MODELS
+    from bayesbeam.comparison import DEFAULT_MODELS
 
     p.add_argument("--models", default=",".join(DEFAULT_MODELS),
                    help="comma-separated presets or '+'-joined mechanisms (bayesbeam models lists them), or a "
@@ -46,7 +45,7 @@ def add_evidence_options(p) -> None:
 
 
 def comparison_config(args):
-    from bayesbeam.compare import CompareConfig
+    from bayesbeam.comparison import CompareConfig
 
     fit = fit_config(args)
     try:
@@ -58,7 +57,7 @@ def comparison_config(args):
 
 def model_list(text: str, effects=None, option: str = "--models") -> list[str]:
     """Model names from a comma-separated list, each with the ``--effect`` names joined in and checked."""
-    from bayesbeam.compare import expand_model_sets
+    from bayesbeam.comparison import expand_model_sets
 
     models = expand_model_sets(m.strip() for m in text.split(",") if m.strip())
     if not models:
@@ -67,20 +66,13 @@ def model_list(text: str, effects=None, option: str = "--models") -> list[str]:
 
 
 def run(args) -> int:
-    from bayesbeam.compare import compare
-    from bayesbeam.inference.sampler import stderr_progress
+    from bayesbeam.api import run_compare
     from bayesbeam.report.compare_outputs import write_comparison
 
     out = output_folder(args)
-    models = model_list(args.models, args.effect)
-    config = comparison_config(args)
-    rec = load_recording(args.recording)
-    executor = job_executor(args)
-    try:
-        results, summary = compare(rec, models, config, executor, log=None if args.quiet else stderr_progress)
-    finally:
-        executor.close()
-    paths = write_comparison(results, summary, out)
+    comparison = run_compare(args, load_recording(args.recording))
+    summary = comparison.summary_dict
+    paths = write_comparison(comparison.results, summary, out)
     print(format_ranking(summary))
     print(f"wrote {', '.join(p.name for p in paths[-2:])} and posteriors/ in {out}")
     return 0

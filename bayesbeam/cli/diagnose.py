@@ -5,13 +5,11 @@ from bayesbeam.cli.common import (
     UsageError,
     add_effect_option,
     add_out_options,
-    job_executor,
-    model_spec,
     output_folder,
 )
 from bayesbeam.cli.compare import add_evidence_options, comparison_config
 from bayesbeam.io import load_recording
-from bayesbeam.report.diagnosis import lead
+from bayesbeam.report.diagnosis import lead, next_steps
 
 HELP = "locate where the best damping model misses a recording, name and add the missing physics"
 
@@ -21,6 +19,9 @@ def add_arguments(p) -> None:
     p.add_argument("--model", help="baseline damping model, a preset or '+'-joined mechanisms (default: the best "
                                    "of the default models by evidence, from a comparison run first)")
     add_effect_option(p)
+    p.add_argument("--from-comparison", metavar="DIR",
+                   help="reuse the fits of a comparison of this recording already run (bayesbeam compare --out DIR, "
+                        "same fit options) instead of fitting the baseline models again (default: fit them)")
     p.add_argument("--candidates", type=int, default=2, metavar="N", help="augmented models fitted per round")
     p.add_argument("--rounds", type=int, default=2, metavar="N", help="effects added at most")
     p.add_argument("--map-replicates", type=int, default=40, metavar="N", help="replicates of the mismatch map")
@@ -29,7 +30,7 @@ def add_arguments(p) -> None:
 
 
 def diagnose_config(args):
-    from bayesbeam.diagnose import DiagnoseConfig
+    from bayesbeam.diagnosis import DiagnoseConfig
 
     for option, value in (("--candidates", args.candidates), ("--rounds", args.rounds),
                           ("--map-replicates", args.map_replicates)):
@@ -40,33 +41,24 @@ def diagnose_config(args):
 
 
 def run(args) -> int:
-    from bayesbeam.diagnose import diagnose
-    from bayesbeam.inference.sampler import stderr_progress
+    from bayesbeam.api import run_diagnose
     from bayesbeam.report.diagnose_outputs import write_diagnosis
 
     out = output_folder(args)
-    # with --model, the effects join it; without, each default model the comparison starts from
-    model = model_spec(args.model, args.effect) if args.model else None
-    effects = () if args.model else tuple(args.effect or ())
-    if len(set(effects)) < len(effects):
-        raise UsageError(f"--effect {' '.join(effects)}: an effect is given twice. Fix: name each once.")
-    config = diagnose_config(args)
-    rec = load_recording(args.recording)
-    executor = job_executor(args)
-    try:
-        result = diagnose(rec, model, config, executor, log=None if args.quiet else stderr_progress,
-                          effects=effects)
-    finally:
-        executor.close()
+    result = run_diagnose(args, load_recording(args.recording)).result
     summary = result.to_dict()
     paths = write_diagnosis(result, summary, out)
     print(f"baseline {summary['baseline']['model']}: log Z {summary['baseline']['log_evidence']:.1f}, "
           f"RMS standardized residual {summary['baseline']['rms_standardized_residual']:.2f}")
-    print(f"added: {', '.join(summary['added']) or 'nothing'}; unexplained: {summary['unexplained']}")
+    print(f"added: {', '.join(a + (' (stand-in)' if a in summary['stand_ins'] else '') for a in summary['added']) or 'nothing'}"
+          f"; unexplained: {summary['unexplained']}")
     print(f"final {summary['final']['model']}: log Z {summary['final']['log_evidence']:.1f}, "
           f"RMS standardized residual {summary['final']['rms_standardized_residual']:.2f}")
     print()
     print(" ".join(lead(summary)))
+    steps = next_steps(summary)
+    if steps:
+        print("\nWhat to check next:\n" + "\n".join(f"  {i}. {s}" for i, s in enumerate(steps, 1)))
     print()
     print("In detail: " + summary["summary"])
     print(f"wrote {', '.join(p.name for p in paths[-2:])} and posteriors/ in {out}")

@@ -11,7 +11,6 @@ from bayesbeam.cli.common import (
     add_out_options,
     add_run_options,
     add_seed_option,
-    model_spec,
     output_folder,
     positive_int,
 )
@@ -70,19 +69,13 @@ def fit_config(args):
 
 
 def run(args) -> int:
-    from bayesbeam.inference import fit
-    from bayesbeam.inference.sampler import stderr_progress
+    from bayesbeam.api import run_fit
     from bayesbeam.report.fit_outputs import write_fit
 
     out = output_folder(args)
-    model = model_spec(args.model, args.effect)
-    config = fit_config(args)
-    pool = _executor(args)
     rec = load_recording(args.recording)
     out.mkdir(parents=True, exist_ok=True)
-    log = None if args.quiet else stderr_progress
-    result = fit(rec, model, config, pool=pool, backend_path=out / "chains.h5",
-                 resume=args.resume, log=log, progress=log)
+    result = run_fit(args, rec, backend_path=out / "chains.h5").result
     paths = write_fit(result, out)
     summary = result.summary
     print(f"model {summary['model']} ({result.problem.model.name}), N = {summary['n_intervals']}, "
@@ -95,7 +88,7 @@ def run(args) -> int:
     return 0 if result.converged else EXIT_NOT_CONVERGED
 
 
-def _executor(args):
+def walker_pool(args):
     """The pool of the chains' likelihood evaluations: none (serial), local processes or MPI ranks.
     The walkers of a step are evaluated together, so the pool must hold the posterior in each
     worker: a Dask cluster, which runs whole jobs, is for compare, batch and diagnose."""

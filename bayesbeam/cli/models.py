@@ -25,7 +25,7 @@ def _beam(path):
 
 def listing(beam=None) -> list[str]:
     """The lines ``bayesbeam models`` prints; default priors as numbers when ``beam`` is given."""
-    from bayesbeam.compare import MODEL_SETS
+    from bayesbeam.comparison import MODEL_SETS
     from bayesbeam.inference.priors import NOISE_DEFAULTS, SCALES, SETUP_PRIORS
     from bayesbeam.model import PARAMETER_UNITS, SETUP_PARAMETER_UNITS
     from bayesbeam.physics.effects import REGISTRY as EFFECTS

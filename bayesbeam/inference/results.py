@@ -35,7 +35,7 @@ def build_inference_data(result, rng):
     replicates = predictive_replicates(result, rng, N_PREDICTIVE)
     sensors = [s.name for s in rec.sensors]
     coords = {"block": np.arange(lik.projection.n_blocks), "time": rec.time, "sensor": sensors}
-    return az.from_dict(
+    return with_units(az.from_dict(
         posterior=posterior,
         sample_stats={"lp": result.chains.log_prob},
         log_likelihood={"y": pointwise},
@@ -43,7 +43,34 @@ def build_inference_data(result, rng):
         posterior_predictive={"signals": replicates[None]},
         coords=coords,
         dims={"y": ["block"], "signals": ["time", "sensor"]},
-    )
+    ), lik.model)
+
+
+def with_units(idata, model):
+    """``idata`` with ``units`` (SI) and ``description`` attributes on its posterior variables, the
+    parameters of BeamModel ``model`` and its noise (so a table or plot of them can say what they are)."""
+    descriptions = parameter_descriptions(model)
+    for name, variable in idata.posterior.data_vars.items():
+        variable.attrs["units"] = parameter_unit(name, model)
+        variable.attrs["description"] = descriptions.get(name, "")
+    return idata
+
+
+def parameter_unit(name: str, model) -> str:
+    """The SI unit of a parameter of ``model`` or of its noise."""
+    units = model.units
+    return units[name] if name in units else _noise_unit(name, model)
+
+
+def parameter_descriptions(model) -> dict[str, str]:
+    """A sentence per parameter of ``model``: the mechanism or effect it belongs to, or the noise."""
+    out = {name: f"{part.name}: {part.description}" for part in (*model.mechanisms, *model.effects)
+           for name in part.parameters}
+    out["EI"] = "bending stiffness (the Euler-Bernoulli beam's EI)"
+    for sensor in model.recording.sensors:
+        out[f"sigma_{sensor.name}"] = f"white-noise sd of sensor {sensor.name} in the fitted band"
+        out[f"phi_{sensor.name}"] = f"AR(1) coefficient of sensor {sensor.name}'s noise"
+    return out
 
 
 def _pointwise(post, samples):
@@ -116,12 +143,11 @@ def build_summary(result) -> dict:
     chains = result.chains
     values = result.values()
     n_walkers = values.shape[0]
-    units = dict(model.units)
     stats = {}
     for i, name in enumerate(post.names):
         entry = _stats(values[..., i], chains.tau[i], n_walkers, chains.n_steps, chains.burn)
         entry["r_hat"] = float(rhat[name].values)
-        entry["unit"] = units[name] if name in units else _noise_unit(name, model)
+        entry["unit"] = parameter_unit(name, model)
         entry["prior"] = post.priors[i].describe()
         stats[name] = entry
     lik = result.problem.likelihood

@@ -10,6 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
+from bayesbeam.comparison import posterior_file_name
+from bayesbeam.inference.results import with_units
 from bayesbeam.report.comparison import mode_plot, model_colors, write_report
 from bayesbeam.report.fit_outputs import write_json, write_netcdf
 from bayesbeam.report.plots import save
@@ -24,7 +26,7 @@ def inference_data(result):
     values = result.values()
     runs = result.evidence.runs
     rec = result.problem.model.recording
-    return az.from_dict(
+    return with_units(az.from_dict(
         posterior={n: values[..., i] for i, n in enumerate(names)},
         sample_stats={"log_likelihood_total": np.stack([r.log_likelihood for r in runs]),
                       "log_prior": np.stack([r.log_prior for r in runs])},
@@ -33,7 +35,7 @@ def inference_data(result):
         dims={"signals": ["time", "sensor"]},
         attrs={"model": result.name, "log_evidence": result.evidence.log_z,
                "log_evidence_sd": result.evidence.log_z_sd},
-    )
+    ), result.problem.model)
 
 
 def write_comparison(results: dict, summary: dict, out_dir) -> list[Path]:
@@ -44,7 +46,3 @@ def write_comparison(results: dict, summary: dict, out_dir) -> list[Path]:
     written.append(write_report(results, summary, out / "report.html"))
     written.append(write_json(summary, out / "comparison.json"))
     return written
-
-
-def posterior_file_name(model: str) -> str:
-    return model.replace("+", "_plus_")

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 
 from bayesbeam.checks.ppc import LJUNG_BOX_LAGS, PASS_P_VALUE, SPECTRUM_BANDS
-from bayesbeam.compare import described, strength
+from bayesbeam.comparison import EVIDENCE_SD_MAX, R_HAT_MAX, described, strength, unsettled_evidence
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
-from bayesbeam.report.markdown import markdown_table, median_and_interval
+from bayesbeam.report.markdown import interval_ends, markdown_table, median_and_interval, resolving_digits, significant
 
 # plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
 from bayesbeam.report.plots import (
@@ -32,13 +32,17 @@ from bayesbeam.report.plots import (
     predictive_columns,
     signal_label,
 )
+from bayesbeam.report.truth import recording_truths
 
 #: (anchor, title) of the report's sections, in order
 SECTIONS = (("verdict", "Verdict"), ("modes", "Damping per mode"), ("fits", "Time histories"),
             ("spectra", "Residual spectra"), ("checks", "Posterior predictive checks"),
             ("posteriors", "Posteriors"), ("convergence", "Convergence"))
-#: R-hat across SMC repeats above this is flagged (Vehtari et al. 2021)
-RHAT_FLAG = 1.01
+#: why a per-mode cell is empty: the mode is not measured, the model has no interval for it, or
+#: the model has no such mode in the fitted band (checks.ppc.mode_table)
+NO_MEASUREMENT = "not identified: ERA found no pole near the mode in the recording's free decay"
+NO_INTERVAL = "not identified: ERA found the mode in none of the model's replicated recordings"
+OUTSIDE_BAND = "outside the band: the model has no such mode below the fitted band's top"
 #: the time-history zoom: at most this long (a quarter second shows the impact and the first
 #: cycles of the low modes) and at most a fifth of the fitted window
 ZOOM_SECONDS = 0.25
@@ -99,7 +103,9 @@ def _caveats(summary) -> list[str]:
     shift with the grid) are in the Convergence section."""
     out = []
     models = summary["models"]
-    unconverged = [m for m in summary["ranking"] if _worst_rhat(models[m])[1] > RHAT_FLAG]
+    # one definition of "not settled", compare.py's: the verdict, these caveats and the
+    # Convergence section's flags agree
+    unconverged = [m for m in summary["ranking"] if unsettled_evidence(models[m])]
     if unconverged:
         out.append(f"The estimates of {', '.join(unconverged)} are not settled: independent runs of the sampler "
                    f"disagree. Rerun with more --particles or --repeats before quoting them closely "
@@ -115,6 +121,12 @@ def _caveats(summary) -> list[str]:
     if missed:
         out.append(f"The measured damping of mode(s) {', '.join(missed)} is outside what {best} predicts "
                    f"(its 90% interval): {best} does not explain the damping of that mode (Damping per mode).")
+    unchecked = [str(row["mode"]) for row in summary["models"][best]["modes"]
+                 if row["predicted_damping_ratio_90"] is None or row["measured_damping_ratio"] is None]
+    if unchecked:
+        out.append(f"The damping of mode(s) {', '.join(unchecked)} is not checked against {best}: ERA did not "
+                   f"identify the mode in the recording or in {best}'s replicates (each empty cell under "
+                   f"Damping per mode says which).")
     return out
 
 
@@ -175,7 +187,7 @@ def _mode_table(summary, measured_key, interval_key, scale, fmt) -> str:
     for k in modes:
         measured = next((r[k][measured_key] for r in rows_by_model.values()
                          if k in r and r[k][measured_key] is not None), None)
-        cells = [str(k), number(None if measured is None else measured * scale, fmt)]
+        cells = [str(k), _missing(NO_MEASUREMENT) if measured is None else f"{measured * scale:{fmt}}"]
         for m in ranking:
             row = rows_by_model[m].get(k)
             cells.append(_interval_cell(row, measured_key, interval_key, scale, fmt, measured))
@@ -187,10 +199,12 @@ def _interval_cell(row, measured_key, interval_key, scale, fmt, shown) -> str:
     """A model's 90 % interval, flagged when its measurement misses it. The check takes the ERA
     pole nearest the model's mode: where ERA finds two near one mode and this model's is not the
     one in the measured column (``shown``), the cell names it."""
-    if row is None or row[interval_key] is None:
-        return "n/a"
-    lo, hi = (v * scale for v in row[interval_key])
-    text = f"{lo:{fmt}}&ndash;{hi:{fmt}}"
+    if row is None:
+        return _missing(OUTSIDE_BAND)
+    if row[interval_key] is None:
+        return _missing(NO_INTERVAL)
+    lo, hi = interval_ends(*(v * scale for v in row[interval_key]), int(fmt.strip(".g")))
+    text = f"{lo}&ndash;{hi}"
     if row[measured_key] is not None and shown is not None and row[measured_key] != shown:
         text += f"<br><small>against {row[measured_key] * scale:{fmt}}</small>"
     return flag(text, _outside(row[measured_key], row[interval_key]))
@@ -326,7 +340,8 @@ def _posteriors_section(results, summary) -> str:
             + "<p>Posterior median and 90% interval of every parameter (SI units).</p>"
             + _posterior_table(summary)
             + "<p>Corner plots of the model parameters: contours enclose 39% and 86% of the posterior mass "
-              "(the 1- and 2-sigma levels of a 2-D Gaussian); the diagonal shows the marginal densities.</p>"
+              "(the 1- and 2-sigma levels of a 2-D Gaussian); the diagonal shows the marginal densities. On a "
+              "simulated recording (a truth.json beside it) black lines mark the true values.</p>"
             + f'<div class="grid">{corners}</div>')
 
 
@@ -339,17 +354,26 @@ def _posterior_table(summary) -> str:
         cells = [esc(name), esc(unit)]
         for m in ranking:
             q = models[m]["posterior"].get(name)
-            cells.append("&mdash;" if q is None else
-                         f"{q['q50']:.4g}<br><small>{q['q05']:.4g}&ndash;{q['q95']:.4g}</small>")
+            cells.append("&mdash;" if q is None else posterior_cell(q))
         rows.append(cells)
     return table(["parameter", "unit"] + [esc(m) for m in ranking], rows, text_columns=2)
+
+
+def posterior_cell(q: dict) -> str:
+    """A posterior summary's median over its 90% interval, to the digits that resolve the interval
+    and tell its ends apart."""
+    digits = resolving_digits(q)
+    lo, hi = interval_ends(q["q05"], q["q95"], digits)
+    return f"{significant(q['q50'], digits)}<br><small>{lo}&ndash;{hi}</small>"
 
 
 def _corner(result, model_summary):
     post = result.problem.posterior
     k = len(post.model_names)
     draws = result.values()[..., :k].reshape(-1, k)
-    fig = corner_overlay([draws], list(post.model_names), [result.name], units=result.problem.model.units)
+    model = result.problem.model
+    fig = corner_overlay([draws], list(post.model_names), [result.name], units=model.units,
+                         truths=recording_truths(model.recording))
     # the contour caption is the section's, once, and one model needs no legend: a short title
     # keeps small corners two to a row
     fig.suptitle(_title(result.name, model_summary), fontsize=10, y=1.02)
@@ -369,8 +393,9 @@ def _convergence_section(results, summary) -> str:
     method = models[ranking[0]]["evidence"]["method"]
     return (h2("convergence", SECTIONS)
             + f"<p>Evidence: {esc(method)}. Each repeat is an independent run; the final particles of all "
-              f"repeats are the posterior draws, and R-hat compares the repeats (flagged above {RHAT_FLAG}). "
-              f"Acceptance: the mean fraction of accepted moves per tempering stage (its range over "
+              f"repeats are the posterior draws, and R-hat compares the repeats. A model's evidence has not "
+              f"settled (flagged) when its repeats spread by more than {EVIDENCE_SD_MAX:g} nats (sd) or its "
+              f"R-hat exceeds {R_HAT_MAX:g}. Acceptance: the mean fraction of accepted moves per tempering stage (its range over "
               f"stages).</p>" + _smc_table(results, summary)
             + "<h3>Discretisation check</h3><p>The optimum at the spline grid N used against the next finer "
               "grid; a shift above the tolerance (in posterior sd) means the grid limits the estimates.</p>"
@@ -384,10 +409,11 @@ def _smc_table(results, summary) -> str:
         runs = results[m].evidence.runs
         acceptance = np.concatenate([r.acceptance for r in runs])
         name, worst = _worst_rhat(s)
-        rows.append([esc(m), ", ".join(f"{z:.2f}" for z in s["evidence"]["repeats"]),
+        spread = ", ".join(f"{z:.2f}" for z in s["evidence"]["repeats"]) + f"<br><small>sd {s['log_evidence_sd']:.2f}</small>"
+        rows.append([esc(m), flag(spread, s["log_evidence_sd"] > EVIDENCE_SD_MAX),
                      ", ".join(str(n) for n in s["evidence"]["stages"]),
                      f"{acceptance.min():.2f}&ndash;{acceptance.max():.2f}",
-                     flag(f"{worst:.3f} ({esc(name)})", worst > RHAT_FLAG),
+                     flag(f"{rhat_text(worst)} ({esc(name)})", worst > R_HAT_MAX),
                      f"{s['evidence']['evaluations']:,}", f"{s['evidence']['seconds']:.1f}"])
     head = ["model", "log Z per repeat", "stages per repeat", "acceptance", "max R-hat", "evaluations",
             "seconds"]
@@ -427,10 +453,17 @@ def ranking_markdown(summary) -> str:
 
 # ---------------------------------------------------------------------------- helpers
 def _worst_rhat(model_summary) -> tuple[str, float]:
-    """(parameter, R-hat) of the least converged parameter; R-hat to the three decimals shown, so
-    that a flagged value never reads as the threshold itself."""
-    name, value = max(((k, v["r_hat"]) for k, v in model_summary["posterior"].items()), key=lambda kv: kv[1])
-    return name, round(value, 3)
+    """(parameter, R-hat) of the least converged parameter."""
+    return max(((k, v["r_hat"]) for k, v in model_summary["posterior"].items()), key=lambda kv: kv[1])
+
+
+def rhat_text(value: float) -> str:
+    """R-hat to three decimals, or as many more as keep a value beyond :data:`R_HAT_MAX` from
+    reading as the threshold itself (1.0501 is flagged: not "1.050")."""
+    digits = 3
+    while digits < 8 and (value > R_HAT_MAX) != (round(value, digits) > R_HAT_MAX):
+        digits += 1
+    return f"{value:.{digits}f}"
 
 
 def _probability(p) -> str:
@@ -444,6 +477,11 @@ def _title(name, model_summary) -> str:
 
 
 
+
+
+def _missing(reason: str) -> str:
+    """An empty cell that says why it is empty."""
+    return f"n/a<br><small>{esc(reason)}</small>"
 
 
 def _outside(value, interval) -> bool:

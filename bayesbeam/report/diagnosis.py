@@ -15,14 +15,17 @@ import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.patches import Rectangle
 
-from bayesbeam.compare import strength
-from bayesbeam.diagnose import flags
+from bayesbeam.checks.discrepancy import share_words
+from bayesbeam.comparison import R_HAT_MAX, strength
+from bayesbeam.diagnosis import flags
 from bayesbeam.io.atomic import write_text
-from bayesbeam.report.comparison import RHAT_FLAG, WIDTH
+from bayesbeam.report.comparison import WIDTH, rhat_text
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
+from bayesbeam.report.markdown import interval_ends, resolving_digits, significant
 
 # plt comes from plots, which puts matplotlib on the Agg backend before importing pyplot
 from bayesbeam.report.plots import plt
+from bayesbeam.report.truth import recording_truths
 
 #: (anchor, title) of the report's sections, in order
 SECTIONS = (("summary", "Summary"), ("map", "Mismatch map"), ("modes", "Per mode"),
@@ -40,7 +43,7 @@ MODE_COLUMNS = {"frequency": ("frequency error [%]", "frequency_error_pct", "fre
 
 
 def write_report(d, summary: dict, path) -> Path:
-    """Write the report of a diagnosis (:class:`bayesbeam.diagnose.Diagnosis`) and its
+    """Write the report of a diagnosis (:class:`bayesbeam.diagnosis.Diagnosis`) and its
     ``d.to_dict()`` summary to ``path``, atomically."""
     return write_text(path, render(d, summary))
 
@@ -78,6 +81,10 @@ def _header(d, summary) -> str:
 
 def _summary_section(summary) -> str:
     out = [h2("summary", SECTIONS), f'<p class="verdict">{esc(" ".join(lead(summary)))}</p>']
+    steps = next_steps(summary)
+    if steps:
+        out.append('<p>What to check next:</p><ol class="next">' + "".join(f"<li>{esc(s)}</li>" for s in steps)
+                   + "</ol>")
     recheck = summary.get("damping_recheck")
     if recheck and recheck["switched"]:
         out.append(f"<p>With {esc(' and '.join(recheck['effects']))} in every model the damping models were compared "
@@ -99,16 +106,27 @@ def _summary_section(summary) -> str:
 
 
 def lead(summary: dict) -> list[str]:
-    """Three plain sentences from diagnosis.json (``summary``): what was missing, how strong the
-    evidence is, and how much the fit improved."""
-    return [_missing_sentence(summary), _evidence_sentence(summary), _improvement_sentence(summary)]
+    """Plain sentences from diagnosis.json (``summary``): first any stand-in (a parameter the
+    set-up rules out), then what was missing, how strong the evidence is, and how much the fit
+    improved. When something is unexplained, :func:`next_steps` says what to check next."""
+    sentences = (_stand_in_sentence(summary), _found_sentence(summary), _evidence_sentence(summary),
+                 _improvement_sentence(summary))
+    return [s for s in sentences if s]
 
 
-def _missing_sentence(summary) -> str:
-    given = " ".join(f"Not a finding: the given {effect} stands in for a structural mismatch the catalogue cannot "
-                     f"name ({v['parameter']} = {v['median']:.4g} {v['unit']}, {v['why']})."
-                     for effect, v in summary.get("given_stand_ins", {}).items())
-    return " ".join(text for text in (_found_sentence(summary), given) if text)
+def stand_ins(summary: dict) -> list[tuple[str, dict]]:
+    """(effect, its stand-in verdict) of every added effect and every given one whose posterior
+    median the set-up rules out (``diagnose.stand_in``: parameter, median, allowed, unit, why)."""
+    added = [(_named(c), c["stand_in"]) for c in summary["candidates"] if c["added"] and c.get("stand_in")]
+    return added + list(summary.get("given_stand_ins", {}).items())
+
+
+def _stand_in_sentence(summary) -> str:
+    return " ".join(
+        f"Not a finding: {effect} is a stand-in. Its {v['parameter']} = {v['median']:.4g} {v['unit']} (posterior "
+        f"median) lies outside the {v['allowed'][0]:.4g} to {v['allowed'][1]:.4g} {v['unit']} the set-up allows "
+        f"({v['why']}): it stands in for a structural mismatch the catalogue cannot name."
+        for effect, v in stand_ins(summary))
 
 
 def _found_sentence(summary) -> str:
@@ -119,17 +137,121 @@ def _found_sentence(summary) -> str:
         found = "; ".join(f"{_effect_words(c['effect'])} ({_named(c)}), "
                           + ", ".join(_estimate(name, final.get(name, q)) for name, q in c["parameters"].items())
                           for c in added if not c.get("stand_in"))
-        # a stand-in improves the fit with a value the stated set-up cannot have (diagnose.stand_in)
-        stand_ins = "; ".join(f"{_named(c)} stands in for a structural mismatch the catalogue cannot name "
-                              f"({c['stand_in']['parameter']} = {c['stand_in']['median']:.4g} {c['stand_in']['unit']}, "
-                              f"{c['stand_in']['why']})" for c in added if c.get("stand_in"))
-        return " ".join(text for text in (
-            found and f"What the damping model {base} left out of this recording: {found}.",
-            stand_ins and f"Not a finding: {stand_ins}.") if text)
+        if found:
+            return f"What the damping model {base} left out of this recording: {found}."
+        return f"No missing physics the set-up allows was found in what the damping model {base} left out."
     if summary["unexplained"]:
         return (f"Something the damping model {base} leaves out shows above the noise, but no effect of the "
                 f"catalogue explains it (where: Unexplained, below).")
     return f"Nothing the damping model {base} leaves out shows above the noise: no effect was needed."
+
+
+#: What to check next, per kind of unexplained region (:func:`region_kinds` reads the kind from
+#: the region and the final map's per-mode row): the physical causes that move a cantilever's
+#: recording that way, then what to check (``{where}``: the modes or frequencies, ``{sensors}``). A frequency shift at one mode only is local (a mass or
+#: a constraint where that mode moves, or a support resonating near it); a shift of every mode the
+#: same way is global (the clamp, or the beam's stated stiffness and mass); extra damping at one
+#: mode is a dissipation where that mode moves; a line that does not decay is not the beam's.
+NEXT_STEPS = {
+    "modes_low": ("{where} are each low: a compliant clamp or a mass the set-up does not state. Check the "
+                  "clamp's tightness and faces, and weigh what is attached (cables, sensors) against beam.toml."),
+    "modes_high": ("{where} are each high: the beam is stiffer or lighter than beam.toml states. Check its "
+                   "length, thickness and material, and the stated tip and sensor masses."),
+    "mode_low": ("the frequency of {where} is low, not every mode's: something attached near that mode's "
+                 "antinode, or a resonance of the support near that frequency. Check what touches the beam "
+                 "where that mode moves most (a cable, a bolt), and tap the support."),
+    "mode_high": ("the frequency of {where} is high, not every mode's: a constraint near that mode's antinode "
+                  "(a cable pulled taut, a guide). Check what holds the beam where that mode moves most."),
+    "damping_high": ("the damping of {where} is higher than the model's: a contact or rubbing where that mode "
+                     "moves, or a support that dissipates (a dashpot). Check loose cables, the clamp's faces "
+                     "and the support's mounting."),
+    "damping_low": ("the damping of {where} is lower than the model's: the damping model's law across frequency"
+                    " does not fit there. Check the other damping models (bayesbeam compare --models all)."),
+    "amplitude": ("the amplitude of {where} on {sensors} is not the model's: a sensor's sensitivity or "
+                  "position, or the excitation's position. Check the calibration and the positions in "
+                  "beam.toml."),
+    "decay_shape": ("the decay of {where} is not exponential: damping that depends on amplitude (friction at "
+                    "the clamp, air drag). Check the clamp's tightness, and record at two impact strengths."),
+    "line_persistent": ("the residual at {where} on {sensors} does not decay: electrical pickup (mains, a "
+                        "switching supply). Check the cable's shield and the ground, with a recording of the "
+                        "beam at rest."),
+    "line_decaying": ("the residual at {where} on {sensors}, away from every model mode, decays: a mode the "
+                      "model lacks (torsion, bending in the other plane, the support's own). Check for a mode "
+                      "there with an impact off the beam's centre line."),
+    "band_top": ("a misfit at {where}, at a mode near the top of the fitted band where no per-mode statistic is"
+                 " computed. Check a fit with --max-frequency above it."),
+    "delay": ("the response lags the model: a timing offset between the channels (an anti-alias filter's delay,"
+              " a multiplexed DAQ). Check the DAQ's inter-channel delay."),
+    "force": ("the response is not driven by the measured force as modelled: a double hit, a clipped or "
+              "miscalibrated force channel. Check the force record around the impact and the hammer's "
+              "calibration."),
+    "other": ("at {where} on {sensors}: {note}. Check that region of the mismatch map."),
+}
+
+
+def next_steps(summary: dict) -> list[str]:
+    """What to check next, one line per kind of cause (:data:`NEXT_STEPS`), for the regions
+    diagnosis.json (``summary``) calls unexplained; empty when nothing is. A line names every mode
+    or frequency and sensor of its kind."""
+    rows = {row["mode"]: row for row in summary.get("maps", {}).get("final", {}).get("modes", [])}
+    found: dict[str, dict] = {}
+    for r in summary["unexplained_regions"]:
+        for kind in region_kinds(r, rows):
+            entry = found.setdefault(kind, {"where": [], "sensors": [], "note": r["note"]})
+            for key, value in (("where", _place(r, rows)), ("sensors", r["sensor"])):
+                entry[key] += [] if value in entry[key] else [value]
+    shifted = _shifted_modes(rows) if {"mode_low", "mode_high"} & found.keys() else None
+    if shifted:
+        kind, modes = shifted
+        found = {kind: {"where": [_place({"mode": k}, rows) for k in modes], "sensors": [], "note": ""},
+                 **{k: v for k, v in found.items() if k not in ("mode_low", "mode_high")}}
+    return [_step(kind, {k: v if k == "note" else " and ".join(v) for k, v in entry.items()})
+            for kind, entry in found.items()]
+
+
+def region_kinds(region: dict, modes: dict) -> list[str]:
+    """The kinds (keys of :data:`NEXT_STEPS`) of an unexplained region, from its mode's row of the
+    final map (``modes``: mode number -> row): the sign of each flagged frequency and damping
+    error, a flagged amplitude or decay shape; for a region at no mode, from its note (a line, the
+    delay, the latent force)."""
+    row = modes.get(region.get("mode"))
+    if row is not None:
+        kinds = []
+        if "frequency" in row["flags"]:
+            kinds.append("mode_low" if row["frequency_error_pct"] < 0 else "mode_high")
+        if "damping" in row["flags"]:
+            kinds.append("damping_low" if row["damping_error_pct"] < 0 else "damping_high")
+        kinds += [k for flag_, k in (("amplitude", "amplitude"), ("curvature", "decay_shape")) if flag_ in row["flags"]]
+        return kinds or ["other"]
+    note = region["note"]
+    for words, kind in (("near the top of the band", "band_top"), ("does not decay", "line_persistent"),
+                        ("it decays", "line_decaying"), ("lags the model", "delay"), ("latent terms", "force")):
+        if words in note:
+            return [kind]
+    return ["other"]
+
+
+def _shifted_modes(modes: dict) -> tuple[str, list[int]] | None:
+    """("modes_low" or "modes_high", the modes) when two or more modes' frequencies are flagged and
+    all err the same way: a global cause, not one per mode."""
+    errors = {k: row["frequency_error_pct"] for k, row in modes.items() if "frequency" in row["flags"]}
+    signs = {e < 0 for e in errors.values()}
+    if len(errors) < 2 or len(signs) > 1:
+        return None
+    return ("modes_low" if signs.pop() else "modes_high"), sorted(errors)
+
+
+def _step(kind: str, values: dict) -> str:
+    text = NEXT_STEPS[kind].format(**values)
+    return text[0].upper() + text[1:]
+
+
+def _place(region: dict, modes: dict) -> str:
+    """Where a region is: its mode and the model's frequency of it ('mode 2 (41.38 Hz)'), or its
+    frequency (its peak, or its band's middle)."""
+    if region.get("mode") in modes:
+        return f"mode {region['mode']} ({modes[region['mode']]['model_frequency_hz']:.4g} Hz)"
+    return f"{region.get('peak_hz') or sum(region['band_hz']) / 2:.4g} Hz"
 
 
 def _evidence_sentence(summary) -> str:
@@ -173,14 +295,16 @@ def _effect_words(name: str) -> str:
 
 def _estimate(name: str, q: dict) -> str:
     unit = f" {q['unit']}" if q["unit"] else ""
-    return f"{name} = {q['mean']:.4g}{unit} (90% interval {q['q05']:.4g} to {q['q95']:.4g})"
+    return f"{name} = {q['mean']:.4g}{unit} (90% interval {_interval([q['q05'], q['q95']])})"
 
 
 def regions_table(regions) -> str:
-    """Map regions: band, time window, sensor and the finding in words."""
+    """Map regions: band, time window, sensor, the finding and the size of the misfit in words
+    (``misfit_share``, which exceeds 1 where the model puts little signal: see ``share_words``)."""
     rows = [[f"{r['band_hz'][0]:.4g}&ndash;{r['band_hz'][1]:.4g}", f"{r['time_s'][0]:.3g}&ndash;{r['time_s'][1]:.3g}",
-             esc(r["sensor"]), esc(r["note"])] for r in regions]
-    return table(["band [Hz]", "time [s]", "sensor", "note"], rows, text_columns=(2, 3))
+             esc(r["sensor"]), esc(r["note"]),
+             esc(share_words(r["misfit_share"])) if r.get("misfit_share") is not None else "n/a"] for r in regions]
+    return table(["band [Hz]", "time [s]", "sensor", "note", "misfit"], rows, text_columns=(2, 3, 4))
 
 
 # ---------------------------------------------------------------------------- the map
@@ -460,7 +584,8 @@ def _effect_section(d, summary) -> str:
         signature, parameters = d.signature(t), summary["candidates"][d.trials.index(t)]["parameters"]
         caption = ("Posterior of the added effect's parameter in the augmented model (all SMC particles): median "
                    "(solid) and 90% interval (shaded), against the signature screen's value and 90% interval "
-                   "(marker and bar), estimated before the model was fitted.")
+                   "(marker and bar), estimated before the model was fitted; on a simulated recording (a "
+                   "truth.json beside it) the true value (dotted).")
         name = _named(summary["candidates"][d.trials.index(t)])
         out.append(f"<h3>{esc(name)} (round {t.round}, {esc(t.result.name)})</h3>"
                    + figure(effect_posterior_plot(t, parameters, signature), f"posterior of {t.effect}", caption))
@@ -489,6 +614,7 @@ def effect_posterior_plot(trial, summary: dict, signature):
     fig, axes = plt.subplots(len(summary), 1, figsize=(WIDTH * 0.8, 3.0 * len(summary)), squeeze=False,
                              layout="constrained")
     values = trial.result.values()
+    truths = recording_truths(trial.result.problem.model.recording)
     for ax, (name, q) in zip(axes[:, 0], summary.items()):
         ax.hist(values[..., names.index(name)].ravel(), bins=30, density=True, color="C0", alpha=0.6,
                 label="posterior draws")
@@ -496,6 +622,8 @@ def effect_posterior_plot(trial, summary: dict, signature):
         ax.axvline(q["q50"], color="C0", lw=1.5, label=f"posterior median {q['q50']:.4g}")
         if signature is not None and signature.parameter == name and signature.value is not None:
             _mark_signature(ax, signature)
+        if name in truths:
+            ax.axvline(truths[name], color="k", lw=1.5, ls=":", label=f"truth {truths[name]:.4g} (truth.json)")
         ax.set(xlabel=f"{name} [{q['unit']}]" if q["unit"] else name, ylabel="density")
         ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1))
     return fig
@@ -526,8 +654,8 @@ def effect_table(d, summary) -> str:
 # ---------------------------------------------------------------------------- formatting
 def _posterior_cells(q: dict) -> list[str]:
     """Median, 90% interval, mean +- sd and R-hat (flagged) of one parameter's posterior summary."""
-    return [f"{q['q50']:.4g}", _interval([q["q05"], q["q95"]]), f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}",
-            flag(f"{q['r_hat']:.3f}", round(q["r_hat"], 3) > RHAT_FLAG)]
+    return [significant(q["q50"], resolving_digits(q)), _interval([q["q05"], q["q95"]], resolving_digits(q)), f"{q['mean']:.4g} &plusmn; {q['sd']:.2g}",
+            flag(rhat_text(q["r_hat"]), q["r_hat"] > R_HAT_MAX)]
 
 
 def _added_cell(trial) -> str:
@@ -539,8 +667,9 @@ def _value(value, unit) -> str:
     return "n/a" if value is None else f"{value:.4g}" + (f" {esc(unit)}" if unit else "")
 
 
-def _interval(interval) -> str:
-    return "n/a" if not interval else f"{interval[0]:.4g} to {interval[1]:.4g}"
+def _interval(interval, digits: int = 4) -> str:
+    """'low to high', to ``digits`` significant digits or as many more as tell the ends apart."""
+    return "n/a" if not interval else " to ".join(interval_ends(*interval, digits))
 
 
 def _ms(value, sd) -> str:

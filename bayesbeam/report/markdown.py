@@ -94,6 +94,15 @@ def resolving_digits(q: dict) -> int:
     return min(8, 3 + max(0, int(np.floor(np.log10(ratio)))))
 
 
+def interval_ends(low: float, high: float, digits: int = 4) -> tuple[str, str]:
+    """``low`` and ``high`` to ``digits`` significant digits, or to as many more (up to 8) as make
+    two different values read differently (44.2791 and 44.2803 read 44.279 and 44.280, not 44.28
+    twice)."""
+    while digits < 8 and low != high and significant(low, digits) == significant(high, digits):
+        digits += 1
+    return significant(low, digits), significant(high, digits)
+
+
 def median_and_interval(q: dict) -> str:
     """'median [q05, q95]' of a posterior summary, to :func:`resolving_digits`."""
     digits = resolving_digits(q)

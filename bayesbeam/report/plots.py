@@ -9,6 +9,7 @@ import io
 from pathlib import Path
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import corner
@@ -87,6 +88,8 @@ def corner_overlay(samples: list[np.ndarray], names: list[str], labels: list[str
                             smooth=1.0, hist_kwargs={"density": True},
                             truths=[truths.get(n) for n in names] if truths and i == 0 else None,
                             truth_color="k", label_kwargs={"fontsize": 9}, max_n_ticks=3)
+    for ax in fig.axes:
+        plain_ticks(ax)
     handles = [plt.Line2D([], [], color=COLORS[i % len(COLORS)], label=lab) for i, lab in enumerate(labels)]
     if truths:
         handles.append(plt.Line2D([], [], color="k", label="truth"))
@@ -95,6 +98,20 @@ def corner_overlay(samples: list[np.ndarray], names: list[str], labels: list[str
                "2-D Gaussian); diagonal: marginal densities")
     fig.suptitle(f"{title}\n{caption}" if title else caption, fontsize=9, y=1.02)
     return fig
+
+
+def plain_ticks(ax) -> None:
+    """Tick labels of ``ax`` written out in full, to as many significant digits as write its ticks
+    exactly, so matplotlib draws no offset or multiplier text ("+4.428e1") beside the axis, where a
+    corner plot's axis label sits over it."""
+    for axis in (ax.xaxis, ax.yaxis):
+        if not isinstance(axis.get_major_formatter(), matplotlib.ticker.ScalarFormatter):
+            continue                   # labels corner hid (inner panels) stay hidden
+        ticks = axis.get_ticklocs()
+        step = float(np.min(np.diff(ticks))) if len(ticks) > 1 else 1.0
+        # the fewest digits that write every tick exactly (to a millionth of the tick spacing)
+        digits = next((d for d in range(1, 9) if all(abs(float(f"{t:.{d}g}") - t) <= 1e-6 * step for t in ticks)), 9)
+        axis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda x, _pos, d=digits: f"{x:.{d}g}"))
 
 
 def _common_ranges(samples):

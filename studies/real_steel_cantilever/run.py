@@ -116,10 +116,10 @@ def diagnosis_table(d: dict) -> str:
 
 def setup_table(summary: dict) -> str:
     """Each model's fitted set-up: m_s against the range the stated set-up allows a sensor mass
-    (the diagnosis's stand-in rule, :func:`bayesbeam.diagnose.allowed_by_setup`, on this folder's
+    (the diagnosis's stand-in rule, :func:`bayesbeam.diagnosis.allowed_by_setup`, on this folder's
     ``recording/``), and the free length l and the sensor's offset dx_tip, whose priors are
     uniform over the stated tolerances (an interval reaching a bound is marked)."""
-    from bayesbeam.diagnose import allowed_by_setup
+    from bayesbeam.diagnosis import allowed_by_setup
     from bayesbeam.io import load_recording
     from bayesbeam.report.markdown import markdown_table, median_and_interval
 

@@ -17,7 +17,7 @@ suite's budget holds.
 import numpy as np
 import pytest
 
-from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare
+from bayesbeam.comparison import DEFAULT_MODELS, CompareConfig, compare
 from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig
 from tests.acceptance import cases

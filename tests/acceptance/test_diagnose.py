@@ -16,8 +16,8 @@ from functools import cache
 import numpy as np
 import pytest
 
-from bayesbeam.compare import CompareConfig
-from bayesbeam.diagnose import DECISIVE, DiagnoseConfig, diagnose, flags
+from bayesbeam.comparison import CompareConfig
+from bayesbeam.diagnosis import DECISIVE, DiagnoseConfig, diagnose, flags
 from bayesbeam.inference.fit import FitConfig
 from tests.acceptance import cases
 

@@ -22,7 +22,7 @@ above the truth. Damping of realistic size with each mechanism's own frequency d
   zeta = 0.087, 0.053, 0.018, 0.009 % for modes 1-4: what the material predicts, nothing chosen.
 
 1. **Ranking.** Each recording of the three mechanisms at their first values is compared by
-   :func:`bayesbeam.compare.compare` against the true model and its two closest competitors,
+   :func:`bayesbeam.comparison.compare` against the true model and its two closest competitors,
    and the true model must rank first by at least :data:`MARGINS`. The competitors are those
    that came closest when the recording was compared, at the same settings, against every model
    of ``MODEL_SETS["all"]`` it can carry (all nine on the strip; eight on the paper beam, whose
@@ -108,8 +108,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from bayesbeam.compare import CompareConfig, compare
-from bayesbeam.diagnose import DiagnoseConfig, diagnose
+from bayesbeam.comparison import CompareConfig, compare
+from bayesbeam.diagnosis import DiagnoseConfig, diagnose
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
 from bayesbeam.io.recording import MATERIALS
 from tests.acceptance.cases import NOISE, NOMINAL_OVER_TRUE
@@ -231,7 +231,7 @@ def misses(values: dict, truth: dict, checks) -> list[str]:
 
 
 def named(result) -> dict:
-    """A :class:`~bayesbeam.compare.ModelResult`'s posterior draws as parameter name -> physical values."""
+    """A :class:`~bayesbeam.comparison.ModelResult`'s posterior draws as parameter name -> physical values."""
     values = result.values()
     return {n: values[..., i].ravel() for i, n in enumerate(result.problem.posterior.names)}
 

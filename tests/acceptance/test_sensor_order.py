@@ -33,8 +33,8 @@ import pytest
 
 from bayesbeam.checks.survey import survey
 from bayesbeam.checks.units import unit_check
-from bayesbeam.compare import CompareConfig
-from bayesbeam.diagnose import DiagnoseConfig, diagnose
+from bayesbeam.comparison import CompareConfig
+from bayesbeam.diagnosis import DiagnoseConfig, diagnose
 from bayesbeam.inference.fit import FitConfig
 from bayesbeam.io import Sensor, TipBody, load_recording
 from bayesbeam.io.importer import import_file

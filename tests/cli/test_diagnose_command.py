@@ -49,3 +49,57 @@ def test_bad_input_exits_2_naming_it(null, tmp_path, capsys, argv, message):
     assert main(["diagnose", null, *argv, "--out", str(tmp_path / "x")]) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_the_terminal_leads_with_a_stand_in_and_ends_the_lead_with_what_to_check(null, tmp_path, capsys,
+                                                                                  monkeypatch):
+    """Plumbing of what `bayesbeam diagnose` prints, on a hand-made diagnosis.json (the wording's
+    own tests are tests/report/test_diagnosis_report.py's): the added line marks the stand-in, the
+    lead's first sentence names it with its estimate and allowed range, and the numbered steps to
+    check follow the lead, before the detailed paragraph."""
+    import importlib
+    from types import SimpleNamespace
+
+    import bayesbeam.report.diagnose_outputs
+    from bayesbeam.report.diagnosis import next_steps
+    from tests.report.summaries import unexplained_summary
+
+    summary = unexplained_summary()
+    # the module, not the package's function of the same name
+    monkeypatch.setattr(importlib.import_module("bayesbeam.diagnosis"), "diagnose",
+                        lambda *args, **kwargs: SimpleNamespace(to_dict=lambda: summary))
+    monkeypatch.setattr(bayesbeam.report.diagnose_outputs, "write_diagnosis", lambda *args: [tmp_path / "x"])
+    assert main(["diagnose", null, *CHEAP, "--out", str(tmp_path / "diag")]) == 0
+    printed = capsys.readouterr().out
+    assert "added: axial_load (stand-in);" in printed
+    first = lead(summary)[0]
+    assert "P = 104.2 N" in first and "-1.483 to 1.483 N" in first
+    steps = next_steps(summary)
+    assert len(steps) == 3
+    positions = [printed.index(text) for text in
+                 (first, "What to check next:", *(f"{i}. {s}" for i, s in enumerate(steps, 1)), "In detail: ")]
+    assert positions == sorted(positions)
+
+
+@pytest.mark.slow
+def test_from_comparison_reuses_the_comparisons_fit_of_the_model(null, tmp_path, capsys):
+    """plumbing: `compare` then `diagnose --from-comparison` on the same recording directory: the
+    diagnosis's baseline is the comparison's q1, its log evidence read back exactly (a float's JSON
+    repr reads back to itself), and the comparison is not run again (no "optimising" for q1)."""
+    compared, out = tmp_path / "compare", tmp_path / "diag"
+    fit = CHEAP[2:8]                            # --n-intervals 6 --repeats 2 --replicates 10
+    assert main(["compare", null, "--models", "q1", *fit, "--executor", "serial", "--quiet", "--out", str(compared)]) == 0
+    capsys.readouterr()
+    assert main(["diagnose", null, *CHEAP[:-1], "--from-comparison", str(compared), "--out", str(out)]) == 0
+    saved = json.loads((compared / "comparison.json").read_text())["models"]["q1"]
+    baseline = json.loads((out / "diagnosis.json").read_text())["baseline"]
+    assert baseline["model"] == "q1" and baseline["log_evidence"] == saved["log_evidence"]
+    progress = capsys.readouterr().err
+    assert f"baseline: q1 read from the comparison in {compared}" in progress
+    assert "optimising 1 models (q1)" not in progress
+
+
+def test_from_comparison_refuses_a_folder_that_holds_none(null, tmp_path, capsys):
+    assert main(["diagnose", null, *CHEAP, "--from-comparison", str(tmp_path), "--out", str(tmp_path / "x")]) == 2
+    assert f"{tmp_path / 'comparison.json'}: file: not found" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-import bayesbeam.compare
-import bayesbeam.diagnose
+import bayesbeam.comparison
+import bayesbeam.diagnosis
 import bayesbeam.inference
 from bayesbeam.cli import COMMANDS, build_parser, main
 from bayesbeam.cli.common import UsageError
@@ -171,12 +171,12 @@ def test_executor_values_and_processes_default(command, capsys):
 
 def test_default_processes_are_all_cores_in_fit_and_the_job_commands():
     from bayesbeam.cli.common import job_executor
-    from bayesbeam.cli.fit import _executor
+    from bayesbeam.cli.fit import walker_pool
     from bayesbeam.executors import SerialExecutor
 
     cores = os.cpu_count()
-    assert _executor(parse("fit")) == (cores if cores > 1 else None)      # a pool of that many processes
-    assert _executor(parse("fit", "--executor", "serial")) is None
+    assert walker_pool(parse("fit")) == (cores if cores > 1 else None)      # a pool of that many processes
+    assert walker_pool(parse("fit", "--executor", "serial")) is None
     executor = job_executor(parse("compare"))
     try:
         assert executor.workers == cores
@@ -186,10 +186,10 @@ def test_default_processes_are_all_cores_in_fit_and_the_job_commands():
 
 
 def test_fit_refuses_a_dask_address_naming_the_commands_that_take_it():
-    from bayesbeam.cli.fit import _executor
+    from bayesbeam.cli.fit import walker_pool
 
     with pytest.raises(UsageError, match="compare, batch and diagnose"):
-        _executor(parse("fit", "--executor", "tcp://scheduler:8786"))
+        walker_pool(parse("fit", "--executor", "tcp://scheduler:8786"))
 
 
 @pytest.fixture
@@ -208,7 +208,7 @@ def fake_mpi4py(monkeypatch):
 
 def test_mpi_runs_jobs_and_fit_pools(fake_mpi4py):
     from bayesbeam.cli.common import job_executor
-    from bayesbeam.cli.fit import _executor
+    from bayesbeam.cli.fit import walker_pool
     from bayesbeam.inference import sampler
 
     executor = job_executor(parse("compare", "--executor", "mpi"))
@@ -216,7 +216,7 @@ def test_mpi_runs_jobs_and_fit_pools(fake_mpi4py):
         assert executor.map(pow, [2, 3], [3, 2]) == [8, 9]
     finally:
         executor.close()
-    deferred = _executor(parse("fit", "--executor", "mpi"))
+    deferred = walker_pool(parse("fit", "--executor", "mpi"))
     pool = deferred.factory(abs)                  # the workers hold the posterior (here: abs)
     try:
         assert list(pool.map(sampler.worker_log_prob, [-2.0, 3.0])) == [2.0, 3.0]
@@ -289,7 +289,7 @@ def test_effect_joins_the_model_of_fit(monkeypatch, tmp_path):
 
 @pytest.mark.parametrize("command", ["compare", "batch"])
 def test_effect_joins_every_compared_model(command, monkeypatch, tmp_path):
-    stop_at(monkeypatch, bayesbeam.compare, "compare")
+    stop_at(monkeypatch, bayesbeam.comparison, "compare")
     with pytest.raises(Reached) as reached:
         main(argv(command, "--models", "q1,air", "--effect", "root_compliance", "--executor", "serial",
                   out=str(tmp_path / "o")))
@@ -297,7 +297,7 @@ def test_effect_joins_every_compared_model(command, monkeypatch, tmp_path):
 
 
 def test_effect_joins_diagnoses_baseline_or_every_default_model(monkeypatch, tmp_path):
-    stop_at(monkeypatch, bayesbeam.diagnose, "diagnose")
+    stop_at(monkeypatch, bayesbeam.diagnosis, "diagnose")
     with pytest.raises(Reached) as reached:
         main(argv("diagnose", "--model", "q2", "--effect", "sensor_mass", "--executor", "serial",
                   out=str(tmp_path / "a")))
@@ -311,15 +311,15 @@ def test_diagnose_starts_from_the_default_models_that_carry_the_effects(monkeypa
     """The library joins the effects to each default model; a nonlinear effect leaves out the
     models with a memory mechanism, which its integrator cannot carry."""
     from bayesbeam import load_recording
-    from bayesbeam.compare import DEFAULT_MODELS
+    from bayesbeam.comparison import DEFAULT_MODELS
     from bayesbeam.physics.mechanisms import resolve
 
-    stop_at(monkeypatch, bayesbeam.diagnose, "compare")
+    stop_at(monkeypatch, bayesbeam.diagnosis, "compare")
     with pytest.raises(Reached) as reached:
-        bayesbeam.diagnose.diagnose(load_recording(HAMMER), None, effects=("sensor_mass",))
+        bayesbeam.diagnosis.diagnose(load_recording(HAMMER), None, effects=("sensor_mass",))
     assert reached.value.args[0][1] == [f"{m}+sensor_mass" for m in DEFAULT_MODELS]
     with pytest.raises(Reached) as reached:
-        bayesbeam.diagnose.diagnose(load_recording(HAMMER), None, effects=("quadratic_drag",))
+        bayesbeam.diagnosis.diagnose(load_recording(HAMMER), None, effects=("quadratic_drag",))
     memoryless = [m for m in DEFAULT_MODELS if not any(k.hereditary for k in resolve(m))]
     assert "q2" not in memoryless and len(memoryless) == len(DEFAULT_MODELS) - 1
     assert reached.value.args[0][1] == [f"{m}+quadratic_drag" for m in memoryless]
@@ -359,7 +359,7 @@ def test_simulate_no_force_window_drives_the_beam_with_the_whole_force(tmp_path)
 
 # ---------------------------------------------------------------------------- bayesbeam models
 def test_models_lists_every_registry_entry_with_units_and_default_priors(capsys):
-    from bayesbeam.compare import MODEL_SETS
+    from bayesbeam.comparison import MODEL_SETS
     from bayesbeam.inference.priors import DEFAULTS, describe_default
     from bayesbeam.physics.effects import REGISTRY as EFFECTS
     from bayesbeam.physics.mechanisms import PRESETS

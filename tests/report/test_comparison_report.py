@@ -15,7 +15,7 @@ import pytest
 from scipy import signal
 
 from bayesbeam.checks.ppc import _band_data
-from bayesbeam.compare import CompareConfig, compare
+from bayesbeam.comparison import CompareConfig, compare
 from bayesbeam.inference.fit import FitConfig
 from bayesbeam.inference.likelihood import BandProjection
 from bayesbeam.report.comparison import SECTIONS, noise_level, write_report
@@ -25,10 +25,16 @@ MODELS = ("air", "q1")
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    """(path of the report, its HTML, the summary) of a two-model comparison."""
+def compared():
+    """(results, summary) of a two-model comparison."""
     rec, _ = ac.hammer("q1", seed=3)                     # tests.reference: the paper's beam, 1 s at 512 Hz
-    results, summary = compare(rec, list(MODELS), CompareConfig(FitConfig(n_intervals=6), repeats=2, replicates=20))
+    return compare(rec, list(MODELS), CompareConfig(FitConfig(n_intervals=6), repeats=2, replicates=20))
+
+
+@pytest.fixture(scope="module")
+def report(compared, tmp_path_factory):
+    """(path of the report, its HTML, the summary) of a two-model comparison."""
+    results, summary = compared
     path = write_report(results, summary, tmp_path_factory.mktemp("report") / "report.html")
     return path, path.read_text(encoding="utf-8"), summary
 
@@ -106,13 +112,14 @@ def test_caveats_say_what_to_doubt_and_do_in_plain_words(report):
     best model's R-hat and discretisation check made to fail."""
     import copy
 
-    from bayesbeam.report.comparison import RHAT_FLAG, _verdict_section
+    from bayesbeam.comparison import R_HAT_MAX
+    from bayesbeam.report.comparison import _verdict_section
 
     _, _, summary = report
     best = summary["best"]
     worse = copy.deepcopy(summary)
     name = next(iter(worse["models"][best]["posterior"]))
-    worse["models"][best]["posterior"][name]["r_hat"] = RHAT_FLAG + 0.05
+    worse["models"][best]["posterior"][name]["r_hat"] = R_HAT_MAX + 0.05
     worse["models"][best]["discretisation_check"].update(passed=False, max_shift_sd=0.3)
     items = re.findall(r"<li>(.*?)</li>", _verdict_section(worse))
     unsettled = [c for c in items if "not settled" in c]
@@ -125,7 +132,7 @@ def test_caveats_say_what_to_doubt_and_do_in_plain_words(report):
 
 def test_a_model_is_described_by_its_mechanisms_and_effects():
     """Mechanisms joined by '+', effects after 'with'; a model of effects alone by its effects."""
-    from bayesbeam.compare import described
+    from bayesbeam.comparison import described
 
     assert described({"mechanisms": ["air", "strain_rate"], "effects": []}) == "air + strain_rate"
     assert described({"mechanisms": ["air"], "effects": ["sensor_mass"]}) == "air with sensor_mass"
@@ -150,3 +157,92 @@ def test_a_model_checked_against_another_era_pole_says_which():
     assert cells[1] == "0.146"
     assert "against" not in cells[2]
     assert "against 0.585" in cells[3]
+
+
+@pytest.mark.parametrize("sd, r_hat", [(0.5, 1.03), (0.5, 1.0501), (1.2, 1.0), (0.99, 1.05)],
+                         ids=["rhat-between-1.01-and-1.05", "rhat-just-over", "spread-over-1-nat", "both-at-limit"])
+def test_the_report_calls_a_model_not_settled_exactly_when_compare_does(compared, sd, r_hat):
+    """One definition (compare.unsettled_evidence): the caveat and the Convergence table's flags
+    name a model exactly when compare.py calls its evidence not settled, on both sides of each
+    limit (R-hat 1.03, flagged by the reports' old 1.01 line, is settled). The fixture's best model
+    gets the spread and R-hat given; the other keeps its own (settled) ones."""
+    import copy
+
+    from bayesbeam.comparison import unsettled_evidence
+    from bayesbeam.report.comparison import _smc_table, _verdict_section
+
+    results, summary = compared
+    best = summary["best"]
+    changed = copy.deepcopy(summary)
+    changed["models"][best]["log_evidence_sd"] = sd
+    next(iter(changed["models"][best]["posterior"].values()))["r_hat"] = r_hat
+    caveats = [c for c in re.findall(r"<li>(.*?)</li>", _verdict_section(changed)) if "not settled" in c]
+    rows = dict(zip(changed["ranking"], body_rows(_smc_table(results, changed))))
+    for m, model in changed["models"].items():
+        unsettled = unsettled_evidence(model) is not None
+        assert any(m in c for c in caveats) == unsettled, (m, caveats)
+        assert ('class="bad"' in rows[m]) == unsettled, (m, rows[m])
+    assert (unsettled_evidence(changed["models"][best]) is not None) == (sd > 1.0 or r_hat > 1.05)
+
+
+def body_rows(table_html) -> list[str]:
+    body = table_html[table_html.index("<tbody>"):table_html.index("</tbody>")]
+    return re.findall(r"<tr[^>]*>(.*?)</tr>", body)
+
+
+def test_every_empty_per_mode_cell_says_why():
+    """Mode 1: measured, model a has no interval (ERA found the mode in none of its replicates);
+    mode 2: not measured, and model b has no such mode in the band (no row). Each n/a names its
+    own reason, and a full cell none; the caveat names every mode of the best model left
+    unchecked, not only those whose measurement misses the interval."""
+    from bayesbeam.report.comparison import NO_INTERVAL, NO_MEASUREMENT, OUTSIDE_BAND, _caveats, _mode_table
+
+    def row(mode, measured, interval):
+        return {"mode": mode, "measured_damping_ratio": measured, "predicted_damping_ratio_90": interval}
+    summary = {"ranking": ["a", "b"], "best": "a",
+               "models": {"a": {"modes": [row(1, 0.002, None), row(2, None, [0.001, 0.002])], "posterior": {},
+                                "log_evidence_sd": 0.1, "discretisation_check": {"passed": True}},
+                          "b": {"modes": [row(1, 0.002, [0.001, 0.003])], "posterior": {},
+                                "log_evidence_sd": 0.1, "discretisation_check": {"passed": True}}}}
+    cells = [html.unescape(c) for c in re.findall(r"<td[^>]*>(.*?)</td>", _mode_table(
+        summary, "measured_damping_ratio", "predicted_damping_ratio_90", 100.0, ".3g"))]
+    assert cells[:4] == ["1", "0.2", f"n/a<br><small>{NO_INTERVAL}</small>", "0.1–0.3"]
+    assert cells[4:] == ["2", f"n/a<br><small>{NO_MEASUREMENT}</small>", "0.1–0.2",
+                         f"n/a<br><small>{OUTSIDE_BAND}</small>"]
+    unchecked = [c for c in _caveats(summary) if "not checked" in c]
+    assert len(unchecked) == 1 and "mode(s) 1, 2 " in unchecked[0]
+
+
+def test_posterior_cells_tell_the_interval_ends_apart_and_noise_sds_carry_their_sensors_unit(compared):
+    """An interval 44.2791-44.2803 reads with its ends different (not '44.28-44.28'); the noise
+    sd of the tip accelerometer is in m/s^2, in the rendered table; a per-mode interval gets the
+    digits that tell its ends apart."""
+    from bayesbeam.report.comparison import _mode_table, _posterior_table, posterior_cell
+
+    cell = posterior_cell({"q05": 44.2791, "q50": 44.2797, "q95": 44.2803})
+    lo, hi = re.search(r"<small>(.*)&ndash;(.*)</small>", cell).groups()
+    assert lo != hi and float(lo) == pytest.approx(44.2791, abs=1e-4) and float(hi) == pytest.approx(44.2803, abs=1e-4)
+    # a damping interval 0.14601-0.14649 % at the table's 3 digits would read 0.146-0.146
+    mode = {"mode": 1, "measured_damping_ratio": 0.001462, "predicted_damping_ratio_90": [0.0014601, 0.0014649]}
+    cells = re.findall(r"<td[^>]*>(.*?)</td>", _mode_table({"ranking": ["a"], "models": {"a": {"modes": [mode]}}},
+                                                           "measured_damping_ratio", "predicted_damping_ratio_90",
+                                                           100.0, ".3g"))
+    assert cells[2] == "0.146&ndash;0.1465", cells
+    _, summary = compared
+    rows = body_rows(_posterior_table(summary))
+    sigma = next(r for r in rows if ">sigma_accel_tip<" in r)
+    assert '<td class="text">m/s^2</td>' in sigma
+
+
+def test_the_corner_plot_marks_the_truth_of_a_simulated_recording(compared, monkeypatch):
+    """With a truth.json beside the recording (its truths stood in here), the corner plot draws a
+    line at the true EI on EI's panels."""
+    from bayesbeam.report import comparison
+
+    results, summary = compared
+    best = summary["best"]
+    monkeypatch.setattr(comparison, "recording_truths", lambda rec: {"EI": 44.0})
+    fig = comparison._corner(results[best], summary["models"][best])
+    ei = fig.axes[0]
+    assert any(np.allclose(line.get_xdata(), 44.0) for line in ei.get_lines())
+    comparison.plt.close(fig)

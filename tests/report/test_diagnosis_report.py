@@ -13,8 +13,8 @@ import subprocess
 
 import pytest
 
-from bayesbeam.compare import strength
-from bayesbeam.diagnose import effect_parameters, paragraph
+from bayesbeam.comparison import strength
+from bayesbeam.diagnosis import effect_parameters, paragraph
 from bayesbeam.report.diagnosis import SECTIONS, lead, write_report
 from tests.diagnosis_cases import diagnosed
 
@@ -209,3 +209,107 @@ def test_every_figure_loads_in_headless_chromium(report, tmp_path):
     n = text.count("<img ")
     assert n >= 2         # the map and the phase figure at least
     assert f'data-figures-loaded="{n}/{n}"' in dom
+
+
+def text_of(html_text) -> str:
+    """What a reader sees: tags dropped, entities decoded."""
+    return html.unescape(re.sub(r"<[^>]+>", " ", html_text))
+
+
+def test_a_stand_in_leads_the_summary_with_its_estimate_and_what_the_set_up_allows():
+    """An added axial load at P = 104 N where the set-up allows +-1.483 N: the report's first
+    sentence says it is a stand-in, with the parameter, its estimate and the allowed range; a
+    stand-in given with the baseline (given_stand_ins) leads the same way."""
+    from bayesbeam.report.diagnosis import _summary_section
+    from tests.report.summaries import STAND_IN, unexplained_summary
+
+    summary = unexplained_summary()
+    first = lead(summary)[0]
+    assert first.startswith("Not a finding: axial_load is a stand-in")
+    assert "P = 104.2 N (posterior median)" in first and "-1.483 to 1.483 N the set-up allows" in first
+    shown = text_of(_summary_section(summary))
+    assert shown.index("axial_load is a stand-in") < shown.index("The evidence is")
+    given = unexplained_summary() | {"candidates": [], "added": [], "given_stand_ins": {"axial_load": STAND_IN}}
+    assert lead(given)[0] == first
+
+
+@pytest.mark.parametrize("share, shown", [(0.36, "the misfit is 36 % of the signal the model puts there"),
+                                          (3.56, "the misfit is 3.6 x the signal the model puts there")])
+def test_a_misfit_share_reads_as_a_percentage_below_one_and_a_multiple_above(share, shown):
+    """misfit_share is unbounded (the misfit over the signal the model puts in the region): 0.36
+    reads '36 %', 3.56 reads '3.6 x', never '356 %', in the rendered Unexplained table."""
+    from bayesbeam.report.diagnosis import _summary_section
+    from tests.report.summaries import region, unexplained_summary
+
+    summary = unexplained_summary(regions=[region("mode 2 is 2% low", share, mode=2)])
+    text = text_of(_summary_section(summary))
+    assert shown in text
+    assert "356" not in text and "channel's signal" not in text
+
+
+#: per rule of NEXT_STEPS: (the final map's mode rows, the unexplained regions, words of its cause)
+RULES = {
+    "modes_low": ([("frequency", -2.0, 0.0), ("frequency", -1.0, 0.0)], [1, 2], "compliant clamp or a mass"),
+    "modes_high": ([("frequency", 2.0, 0.0), ("frequency", 1.0, 0.0)], [1, 2], "stiffer or lighter"),
+    "mode_low": ([("frequency", -2.0, 0.0), ("frequency", 1.0, 0.0)], [1], ("near that mode's antinode, or a "
+                                                                           "resonance of the support")),
+    "mode_high": ([("frequency", 2.0, 0.0), ("frequency", -1.0, 0.0)], [1], "a constraint near that mode's antinode"),
+    "damping_high": ([("damping", 0.0, 30.0)], [1], "a contact or rubbing"),
+    "damping_low": ([("damping", 0.0, -30.0)], [1], "damping model's law"),
+    "amplitude": ([("amplitude", 0.0, 0.0)], [1], "sensitivity or position"),
+    "decay_shape": ([("curvature", 0.0, 0.0)], [1], "depends on amplitude"),
+    "line_persistent": ([], [("residual line at 50 Hz, away from every model mode; its amplitude keeps 95%; it does "
+                             "not decay (95% kept), but neither would the beam")], "electrical pickup"),
+    "line_decaying": ([], [("residual line at 87 Hz, away from every model mode; it decays (9% kept over the "
+                           "window)")], "a mode the model lacks"),
+    "band_top": ([], [("residual at 143.9 Hz, at model mode 3 (143.6 Hz) near the top of the band, where the "
+                      "per-mode statistics are not computed")], "--max-frequency"),
+    "delay": ([], ["the measured response lags the model by 1.2 +- 0.1 ms at the excitation"], "timing offset"),
+    "force": ([], ["the force-noise latent terms carry 3 x the variance the force channel's noise allows"],
+              "double hit"),
+    "other": ([], ["something no rule knows"], "something no rule knows"),
+}
+
+
+@pytest.mark.parametrize("kind", list(RULES))
+def test_each_next_step_rule_names_its_cause_for_its_region(kind):
+    """Each rule of NEXT_STEPS, from a region of its kind: the one step given is that rule's, with
+    its physical cause and where (the mode and its frequency, or the line's frequency). A shift of
+    one sign at every flagged mode is one global step, not a step per mode."""
+    from bayesbeam.report.diagnosis import NEXT_STEPS, next_steps
+    from tests.report.summaries import mode_row, region, unexplained_summary
+
+    rows, where, cause = RULES[kind]
+    modes = [mode_row(i + 1, 10.0 * (i + 1), [flag_], f_err, z_err) for i, (flag_, f_err, z_err) in enumerate(rows)]
+    regions = [region("finding", 0.5, mode=w, band=(9.0, 11.0)) if isinstance(w, int) else
+               region(w, 0.5, peak=87.0) for w in where]
+    steps = next_steps(unexplained_summary(regions, modes))
+    place = ("mode 1 (10 Hz) and mode 2 (20 Hz)" if kind.startswith("modes_") else
+             "mode 1 (10 Hz)" if rows else "87 Hz")
+    expected = NEXT_STEPS[kind].format(where=place, sensors="accel_tip", note=where[0])
+    assert steps == [expected[0].upper() + expected[1:]]
+    assert cause in steps[0]
+    assert set(RULES) == set(NEXT_STEPS)                       # every rule is tested here
+
+
+def test_no_next_steps_when_nothing_is_unexplained():
+    from bayesbeam.report.diagnosis import _summary_section, next_steps
+    from tests.report.summaries import unexplained_summary
+
+    summary = unexplained_summary(regions=[])
+    assert next_steps(summary) == [] and "What to check next" not in _summary_section(summary)
+
+
+@pytest.mark.parametrize("r_hat, flagged", [(1.03, False), (1.05, False), (1.0501, True), (1.2, True)])
+def test_r_hat_is_flagged_past_compares_limit_and_shown_apart_from_it(r_hat, flagged):
+    """The diagnosis report flags a parameter's R-hat exactly when compare.py's R_HAT_MAX (1.05)
+    calls it not settled; a flagged value never prints as the limit itself; a narrow interval
+    (44.2791 to 44.2803) reads with different ends."""
+    from bayesbeam.report.diagnosis import parameter_table
+
+    q = {"unit": "N m^2", "q05": 44.2791, "q50": 44.2797, "q95": 44.2803, "mean": 44.2797, "sd": 4e-4, "r_hat": r_hat}
+    row = body_rows(parameter_table({"EI": q}))[0]
+    assert ('class="bad"' in row) == flagged
+    assert "1.050<" not in row or not flagged
+    low, high = re.search(r"<td>([-0-9.e]+) to ([-0-9.e]+)</td>", row).groups()     # the interval's ends differ
+    assert low != high

@@ -12,7 +12,7 @@ and compares what it prints with the block:
 
 Why 4 sd and the floor: a log Z is the mean of independent SMC repeats and its sd their standard
 error (bayesbeam/inference/evidence.py, combine_runs). Models stopped early have two repeats
-(bayesbeam/compare.py, FIRST_WAVE), so their sd is estimated from one degree of freedom and falls
+(bayesbeam/comparison.py, FIRST_WAVE), so their sd is estimated from one degree of freedom and falls
 below a quarter of the true standard error about one time in five (|N(0, 1)| < 0.25); the leader's
 three repeats give two. The reported sd alone would fail a correct README too often. On this
 recording the committed standard errors are 0.03-0.14 nats (repeats of one model spread by up to

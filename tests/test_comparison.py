@@ -6,7 +6,7 @@ summary's layout are tested on recordings compare() did not make: tests/acceptan
 import numpy as np
 import pytest
 
-from bayesbeam.compare import (
+from bayesbeam.comparison import (
     DEFAULT_MODELS,
     LITERATURE_MODELS,
     expand_model_sets,
@@ -32,7 +32,7 @@ def test_kass_raftery_words_change_at_each_boundary(two_ln_b, word):
 def test_a_verdict_whose_best_model_fails_its_checks_points_to_the_diagnosis():
     """paper_rootcomp_hammer's case: the winner (q2) fails its checks because a root spring is
     missing; the verdict must not read as a finding about the mechanism, and must say what to run."""
-    from bayesbeam.compare import verdict
+    from bayesbeam.comparison import verdict
 
     def entry(log_z, p_value):
         return {"mechanisms": ["time_hysteresis"], "effects": [], "probability": 1.0, "log_evidence": log_z,
@@ -50,7 +50,7 @@ def test_a_verdict_names_the_models_whose_evidence_has_not_settled():
     851.6, 242.0 and 303.3 nats (sd 194) with R-hat 1.10, while the winner's agreed to 0.1. The
     verdict must say that q3's place is not established; settled models (sd <= 1 nat, R-hat <=
     1.05: the shipped studies' runs spread by 0.02-0.18 nats, R-hat <= 1.03) are not named."""
-    from bayesbeam.compare import verdict
+    from bayesbeam.comparison import verdict
 
     def entry(log_z, sd, r_hat, repeats=None):
         return {"mechanisms": ["air", "strain_rate"], "effects": [], "probability": 1.0, "log_evidence": log_z,
@@ -76,7 +76,7 @@ def test_evidence_that_has_not_settled_gets_a_second_pass_from_its_posterior_par
     (and reported under evidence.first_pass)."""
     from types import SimpleNamespace
 
-    import bayesbeam.compare as cmp
+    import bayesbeam.comparison as cmp
     from bayesbeam.executors import SerialExecutor
     from bayesbeam.inference.evidence import combine_runs
 

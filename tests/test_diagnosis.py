@@ -14,7 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesbeam.diagnose import DECISIVE, diagnose, flags, improved
+from bayesbeam.diagnosis import DECISIVE, diagnose, flags, improved
 from tests.diagnosis_cases import REFERENCE_CONFIG, diagnosed, free_decay, recording, reference
 
 #: the map's RMS standardized residual of a right model is 1 up to its own scatter: it averages
@@ -98,7 +98,7 @@ def _mode(curvature_error, p):
 
 
 def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
-    from bayesbeam.diagnose import _candidates
+    from bayesbeam.diagnosis import _candidates
 
     def cand(effect, supported):
         return SimpleNamespace(effect=effect, supported=supported)
@@ -117,7 +117,7 @@ def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
 def test_a_sensor_mass_ranked_at_two_sensors_is_fitted_once_from_the_best_ranked():
     """The screen ranks a mass per sensor; fitting sensor_mass fits every sensor's, so it is one
     augmented model, started from the best-ranked sensor's value and the others' stated masses."""
-    from bayesbeam.diagnose import _candidates, _probe_values
+    from bayesbeam.diagnosis import _candidates, _probe_values
 
     mid = SimpleNamespace(effect="sensor_mass", supported=True, parameter="m_s_mid", value=0.005,
                           others={"m_s_tip": 0.004})
@@ -134,7 +134,7 @@ def test_a_sensor_mass_ranked_at_two_sensors_is_fitted_once_from_the_best_ranked
 def test_a_latent_force_beyond_the_force_noise_puts_a_delay_among_the_fitted_candidates():
     """A delay is absorbed by the force-noise latent terms (a shifted force), where the signature
     screen cannot see it: the latent force's flag adds measurement_delay to what is fitted."""
-    from bayesbeam.diagnose import _candidates
+    from bayesbeam.diagnosis import _candidates
 
     def cand(effect, supported):
         return SimpleNamespace(effect=effect, supported=supported)
@@ -151,7 +151,7 @@ def test_on_a_free_decay_with_no_candidate_supported_every_ranked_one_is_fitted(
     """A force record fits only the top one when the screen supports none; a free decay fits all of
     them (its screen is weaker and its fits cheap: the real record's blind chain missed a sensor
     mass and an axial load that way). A supported candidate still decides alone."""
-    from bayesbeam.diagnose import _candidates
+    from bayesbeam.diagnosis import _candidates
 
     def cand(effect, supported):
         return SimpleNamespace(effect=effect, supported=supported)
@@ -169,7 +169,7 @@ def test_the_decay_screen_is_looser_than_the_maps_flag_and_counts_the_modes():
     """The paper beam's drag: mode 3's curvature 4 sd off (p = 2.9e-4) is not a map flag at four modes
     (ALPHA / 60 = 1.7e-4) but must put drag among the candidates (ALPHA / 4 = 2.5e-3); a mode at
     p = 0.014 (mode 1 there) alone must not, nor may a missing estimate."""
-    from bayesbeam.diagnose import amplitude_dependence
+    from bayesbeam.diagnosis import amplitude_dependence
 
     paper = [_mode(0.042, 0.014), _mode(-0.0085, 0.67), _mode(0.026, 2.9e-4), _mode(-0.055, 0.56)]
     assert amplitude_dependence(SimpleNamespace(modes=paper)) == {"quadratic_drag"}
@@ -189,7 +189,7 @@ def _result(name, log_z, sd=0.1):
 def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
     """recheck_damping with compare's fits replaced by results of the given log evidences; returns
     (DampingRecheck, the models compare was asked to fit)."""
-    import bayesbeam.diagnose as dg
+    import bayesbeam.diagnosis as dg
 
     asked = []
 
@@ -215,7 +215,7 @@ def test_the_damping_recheck_switches_only_on_decisive_evidence(monkeypatch):
     """paper_rootcomp_hammer's pattern: q2 won the first comparison because a root spring was missing;
     with the spring in every model q1 must take over when it is decisively better (ln B > 5 by 3 sd),
     and not when it is ahead by less. The diagnosis's own model is not refitted."""
-    from bayesbeam.diagnose import _recheck_sentence
+    from bayesbeam.diagnosis import _recheck_sentence
 
     log_z = {"q1+root_compliance": -100.0, "q2+root_compliance": -140.0, "q3+root_compliance": -101.0,
              "air+root_compliance": -300.0, "strain_rate+root_compliance": -200.0}
@@ -246,7 +246,7 @@ def test_the_recheck_starts_each_damping_model_from_its_first_fit(monkeypatch):
     re-check starts from that fit's damping parameters with the current model's EI and effect values
     (q1+root_compliance+root_damping's global search alone ended 800 nats below q2's on
     paper_rootcomp_hammer). plumbing: compare is replaced by a recorder of its starts."""
-    import bayesbeam.diagnose as dg
+    import bayesbeam.diagnosis as dg
 
     starts = {}
 
@@ -270,7 +270,7 @@ def test_the_recheck_starts_each_damping_model_from_its_first_fit(monkeypatch):
 def _prune(monkeypatch, log_z: dict):
     """prune_added after a re-check that switched from q2 + both effects to q1 + both, with compare's
     fits replaced by results of the given log evidences (the bare q1 is the first comparison's)."""
-    import bayesbeam.diagnose as dg
+    import bayesbeam.diagnosis as dg
 
     def fake_compare(rec, models, *args, **options):
         assert models, "compare needs a model to fit"
@@ -291,7 +291,7 @@ def test_effects_that_made_up_for_the_first_damping_model_are_dropped(monkeypatc
     1 nat, not decisive), so it is dropped, while the spring stays (q1 alone is 800 nats behind).
     The spring is never left out beside the dashpot, which needs it (q1+root_damping is no model).
     When the dashpot is needed (it costs 50 nats) nothing is dropped."""
-    from bayesbeam.diagnose import _pruning_sentence, combinable
+    from bayesbeam.diagnosis import _pruning_sentence, combinable
 
     assert not combinable("q1+root_damping") and combinable("q1+root_compliance+root_damping")
     log_z = {"q1+root_compliance+root_damping": -100.0, "q1+root_compliance": -99.0, "q1": -900.0}
@@ -309,11 +309,11 @@ def test_effects_that_made_up_for_the_first_damping_model_are_dropped(monkeypatc
 
 def test_the_recheck_leaves_out_models_that_cannot_carry_the_effects(monkeypatch):
     """Drag (nonlinear) cannot go with q2's memory: the re-check fits the four others."""
-    from bayesbeam.diagnose import combinable
+    from bayesbeam.diagnosis import combinable
 
     assert combinable("q1+quadratic_drag") and combinable("q2+root_compliance")
     assert not combinable("q2+quadratic_drag")
-    import bayesbeam.diagnose as dg
+    import bayesbeam.diagnosis as dg
 
     log_z = {f"{m}+quadratic_drag": -100.0 - i for i, m in enumerate(dg.DEFAULT_MODELS)}
     monkeypatch.setattr(dg, "compare", lambda rec, models, *a, **options: ({m: _result(m, log_z[m]) for m in models},
@@ -334,7 +334,7 @@ def test_models_that_need_a_solve_per_frequency_are_not_fitted(spec, slow):
     form: ten times its base model per likelihood, so the diagnosis leaves it out and says why;
     a root spring (rank 1) or a sensor mass keeps q2 fast, and models without memory are never slow.
     On a free decay none is slow. plumbing: the recording only supplies the set-up."""
-    from bayesbeam.diagnose import too_slow
+    from bayesbeam.diagnosis import too_slow
 
     rec = recording(None)
     reason = too_slow(rec, spec, {})
@@ -348,7 +348,7 @@ def test_models_that_need_a_solve_per_frequency_are_not_fitted(spec, slow):
 def test_a_round_fits_what_it_can_and_records_the_rest():
     """From a q2 baseline an axial load (dense) is left out with its reason, a root spring is kept.
     plumbing: the recording only supplies the set-up."""
-    from bayesbeam.diagnose import _fittable
+    from bayesbeam.diagnosis import _fittable
 
     current = _result("q2", -100.0)
     current.problem.posterior.split = lambda theta: ({"EI": 44.0, "alpha": 0.05, "beta": 20.0}, {})
@@ -362,7 +362,7 @@ def test_a_round_fits_what_it_can_and_records_the_rest():
 def test_a_passing_candidate_that_lost_to_a_better_one_is_said_to_have_lost():
     """paper_quadratic_drag's round 1: a root spring passed (ln B 25, map improved) but drag won
     (ln B 101); the paragraph must not say the spring's map did not improve."""
-    from bayesbeam.diagnose import _refusal
+    from bayesbeam.diagnosis import _refusal
 
     def trial(effect, lbf, decisive=True, improved=True, added=False):
         return SimpleNamespace(round=1, effect=effect, log_bayes_factor=lbf, decisive=decisive, improved=improved,
@@ -374,3 +374,42 @@ def test_a_passing_candidate_that_lost_to_a_better_one_is_said_to_have_lost():
                                            "(101.1 nats)")
     assert _refusal(trials[2], trials) == "the mismatch map does not improve"
     assert _refusal(trials[3], trials) == "the evidence is not decisive"
+
+
+@pytest.mark.slow
+def test_a_diagnosis_from_a_comparison_decides_as_one_that_fits_its_baseline(monkeypatch, tmp_path):
+    """plumbing: the cheap BeamModel-made root spring diagnosed without --model, once fitting its
+    baseline models and once reading them from the comparison that fit wrote (write_comparison):
+    the same baseline, the same evidence (exactly: JSON reads a float back to itself), the same
+    added effects and final model, and compare() never called for a baseline model. The default
+    models are cut to q1 and q2 to halve the cost: the reuse does not depend on which they are;
+    q2 wins the first comparison here, so the damping re-check starts q1 from the read-back fit."""
+    from importlib import import_module
+
+    from bayesbeam.report.compare_outputs import write_comparison
+    from tests.diagnosis_cases import CONFIG
+
+    dg = import_module("bayesbeam.diagnosis")    # the module: the package's name "diagnose" may be the function
+    monkeypatch.setattr(dg, "DEFAULT_MODELS", ("q1", "q2"))
+    calls, outputs, fitted = [], [], dg.compare
+
+    def spy(rec, models, *args, **options):
+        calls.append(list(models))
+        outputs.append(fitted(rec, models, *args, **options))
+        return outputs[-1]
+
+    monkeypatch.setattr(dg, "compare", spy)
+    rec = recording("root_compliance")
+    fits = diagnose(rec, None, CONFIG)
+    assert calls[0] == ["q1", "q2"]
+    write_comparison(*outputs[0], tmp_path)
+    calls.clear()
+    read = diagnose(rec, None, CONFIG, from_comparison=tmp_path)
+    assert not {"q1", "q2"} & {m for models in calls for m in models}, calls
+    assert calls                                # the augmented models and the re-check were fitted
+    assert read.baseline.name == fits.baseline.name == "q2"
+    assert read.to_dict()["baseline_comparison"] == fits.to_dict()["baseline_comparison"]
+    assert read.baseline.evidence.log_z == fits.baseline.evidence.log_z
+    assert read.added == fits.added == ["root_compliance"]
+    assert read.final.name == fits.final.name
+    assert read.recheck.switched == fits.recheck.switched

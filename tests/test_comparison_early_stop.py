@@ -11,8 +11,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-import bayesbeam.compare as cmp
-from bayesbeam.compare import CompareConfig, beaten, compare
+import bayesbeam.comparison as cmp
+from bayesbeam.comparison import CompareConfig, beaten, compare
 from bayesbeam.executors import SerialExecutor
 from bayesbeam.inference.evidence import combine_runs
 from bayesbeam.inference.fit import FitConfig

@@ -23,6 +23,7 @@ Models, and the repeats of each model's evidence, are independent jobs for an ex
 """
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import dataclass, field, replace
 
@@ -32,6 +33,7 @@ from bayesbeam.checks.ppc import N_REPLICATES, PASS_P_VALUE, mode_table, posteri
 from bayesbeam.executors import SerialExecutor
 from bayesbeam.inference.evidence import combine_runs, laplace_reference, matched_reference, smc
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
+from bayesbeam.inference.results import parameter_unit
 from bayesbeam.inference.screens import bic, laplace_log_evidence, pointwise_matrix, psis_lfo, psis_loo
 
 #: the paper's three models plus the single mechanisms
@@ -185,7 +187,7 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
                    "psis_lfo": psis_lfo(pointwise), "psis_loo": psis_loo(pointwise)}
         results[model] = ModelResult(model, problem, optimum, record, evidences[model], check, screens,
                                      pointwise, stopped.get(model))
-    summary = summarise(rec, results, time.perf_counter() - started)
+    summary = summarise(rec, results, time.perf_counter() - started, config.fit)
     return results, summary
 
 
@@ -301,14 +303,14 @@ def _seed(seq, i) -> int:
 
 
 # ---------------------------------------------------------------------------- summary
-def summarise(rec, results: dict, seconds: float) -> dict:
-    """comparison.json: ranking by log evidence, probabilities, posteriors, checks, verdict."""
+def summarise(rec, results: dict, seconds: float, fit: FitConfig | None = None) -> dict:
+    """comparison.json: ranking by log evidence, probabilities, posteriors, checks, verdict, each
+    model's optimum, and what a later diagnosis needs to reuse the comparison
+    (:mod:`bayesbeam.saved_comparison`): the recording's :func:`fingerprint` and, given the ``fit`` settings,
+    the resolved :func:`fit_settings`."""
     log_z = {m: r.evidence.log_z for m, r in results.items()}
-    ranking = sorted(log_z, key=log_z.get, reverse=True)
+    ranking, prob = ranked(log_z)
     best = ranking[0]
-    z = np.array([log_z[m] for m in ranking])
-    prob = np.exp(z - z.max())
-    prob /= prob.sum()
     models = {}
     for m, p in zip(ranking, prob):
         r = results[m]
@@ -324,9 +326,55 @@ def summarise(rec, results: dict, seconds: float) -> dict:
             "modes": mode_table(r.check),
             "screens": r.screens,
             "n_intervals": model.n_intervals, "discretisation_check": r.discretisation,
+            "optimum": optimum_entry(r.optimum),
         }
-    return {"recording": str(rec.source) if rec.source else None, "best": best, "ranking": ranking,
-            "models": models, "verdict": verdict(ranking, models), "seconds": round(seconds, 1)}
+    settings = {} if fit is None else {"fit": fit_settings(fit, next(iter(results.values())).problem)}
+    return {"recording": str(rec.source) if rec.source else None, "fingerprint": fingerprint(rec), **settings,
+            "best": best, "ranking": ranking, "models": models, "verdict": verdict(ranking, models),
+            "seconds": round(seconds, 1)}
+
+
+def ranked(log_z: dict) -> tuple[list, np.ndarray]:
+    """Models by log evidence (``log_z``: model -> log Z), highest first, and their posterior
+    probabilities (equal prior probabilities)."""
+    ranking = sorted(log_z, key=log_z.get, reverse=True)
+    z = np.array([log_z[m] for m in ranking])
+    prob = np.exp(z - z.max())
+    return ranking, prob / prob.sum()
+
+
+def optimum_entry(optimum) -> dict:
+    """A model's optimum in comparison.json: the full parameter vector and its Laplace covariance in
+    sampling coordinates (the posterior's ``names`` order), the log posterior there, evaluations."""
+    return {"theta": np.asarray(optimum.theta).tolist(), "log_posterior": float(optimum.log_posterior),
+            "covariance": np.asarray(optimum.covariance).tolist(), "n_evaluations": int(optimum.n_evaluations)}
+
+
+def fingerprint(rec) -> dict:
+    """What identifies a recording: the SHA-256 of its samples (time, signals, force) and of its
+    description (beam, tip body, excitation, sensors, set-up keys), and its sample count."""
+    digest = hashlib.sha256(repr((rec.beam, rec.tip, rec.excitation, rec.sensors, rec.setup_keys)).encode())
+    for array in (rec.time, rec.signals, rec.force):
+        if array is not None:
+            digest.update(np.ascontiguousarray(array, dtype=np.float64).tobytes())
+    return {"sha256": digest.hexdigest(), "samples": len(rec.time)}
+
+
+def fit_settings(fit: FitConfig, problem) -> dict:
+    """The settings that shape every model's likelihood besides the model itself, resolved on a
+    prepared ``problem`` (the band's top in Hz, the fitted window and blocks in samples of the
+    decimated record): what two fits must share for one's results to stand in for the other's."""
+    projection = problem.likelihood.projection
+    return {"max_frequency": float(projection.max_frequency), "decimation": int(problem.decimation),
+            "window_samples": [int(projection.i0), int(projection.i1)], "block": int(projection.block),
+            "noise": fit.noise, "degree": fit.degree, "n_intervals": fit.n_intervals,
+            "force_window": fit.force_window, "force_noise": fit.force_noise, "effects": list(fit.effects),
+            "priors": {name: [p.kind, p.a, p.b] for name, p in sorted(fit.priors.items())}}
+
+
+def posterior_file_name(model: str) -> str:
+    """The stem of a model's posterior NetCDF file (``posteriors/<stem>.nc``)."""
+    return model.replace("+", "_plus_")
 
 
 def posterior_summary(result: ModelResult) -> dict:
@@ -338,13 +386,13 @@ def posterior_summary(result: ModelResult) -> dict:
         import arviz as az
     values = result.values()
     post = result.problem.posterior
-    units = result.problem.model.units
+    model = result.problem.model
     out = {}
     for i, name in enumerate(post.names):
         x = values[..., i]
         q05, q50, q95 = np.quantile(x, [0.05, 0.5, 0.95])
         out[name] = {"mean": float(x.mean()), "sd": float(x.std(ddof=1)), "q05": float(q05), "q50": float(q50),
-                     "q95": float(q95), "r_hat": float(az.rhat(np.asarray(x))), "unit": units.get(name, "")}
+                     "q95": float(q95), "r_hat": float(az.rhat(np.asarray(x))), "unit": parameter_unit(name, model)}
     return out
 
 

@@ -1,8 +1,9 @@
 r"""What is the best damping model missing? Locate, name, model and show (the diagnosis).
 
 1. **Baseline.** The named model (``model="q3"``), or the best of
-   :data:`bayesbeam.compare.DEFAULT_MODELS` by evidence, fitted by :func:`bayesbeam.compare.compare`
-   (optimum, discretisation, SMC evidence, posterior draws).
+   :data:`bayesbeam.comparison.DEFAULT_MODELS` by evidence, fitted by :func:`bayesbeam.comparison.compare`
+   (optimum, discretisation, SMC evidence, posterior draws), or read back from a comparison of the
+   recording already run (``from_comparison``, :mod:`bayesbeam.saved_comparison`).
 2. **Locate** (:func:`bayesbeam.checks.discrepancy.locate`): where the residual stands above the
    noise floor, per mode, and the delay.
 3. **Name** (:func:`bayesbeam.checks.signatures.rank_effects`): each catalogue effect's signature
@@ -25,7 +26,7 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
 
    Of several candidates that pass, the one with the largest log Bayes factor is added. A
    candidate decisively behind the current model or another candidate after its first SMC
-   repeats gets no more (:func:`bayesbeam.compare.beaten`); its evidence is the mean of those.
+   repeats gets no more (:func:`bayesbeam.comparison.beaten`); its evidence is the mean of those.
 5. **Repeat once** (``rounds = 2``) from the augmented model for a second effect.
 6. **Re-check the damping.** When the baseline was chosen by evidence and effects were added, the
    default damping models are compared again, each with the added effects: the first comparison
@@ -56,12 +57,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locate
+from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locate, share_words
 from bayesbeam.checks.signatures import rank_effects
-from bayesbeam.compare import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
-from bayesbeam.compare import summarise as summarise_comparison
+from bayesbeam.comparison import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
+from bayesbeam.comparison import summarise as summarise_comparison
 from bayesbeam.inference.priors import SENSOR_MASS_SIGMA, default_priors, stated_sensor_masses
 from bayesbeam.model import BeamModel, join_model, resolve_model
+from bayesbeam.saved_comparison import SavedComparison
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
 DECISIVE = 5.0
@@ -94,7 +96,7 @@ class Trial:
 
     round: int
     effect: str
-    result: object                  # bayesbeam.compare.ModelResult
+    result: object                  # bayesbeam.comparison.ModelResult
     mismatch: Mismatch
     log_bayes_factor: float         # against the model it was added to
     log_bayes_factor_sd: float
@@ -185,11 +187,14 @@ class Diagnosis:
 
 # ---------------------------------------------------------------------------- the diagnosis
 def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None, executor=None,
-             log=None, effects: tuple = ()) -> Diagnosis:
+             log=None, effects: tuple = (), from_comparison=None) -> Diagnosis:
     """Diagnose ``rec`` against ``model`` (None: the best of the default models by evidence).
 
     ``effects``: effects known to be present, joined to ``model`` or to each default model that
     can carry them (:func:`combinable`); the catalogue search adds to them.
+    ``from_comparison``: the folder of a comparison of ``rec`` with the same fit settings
+    (``bayesbeam compare --out``), whose fits of the baseline models are reused
+    (:func:`baseline_fits`).
     """
     config = config or DiagnoseConfig()
     say = log or (lambda _text: None)
@@ -198,8 +203,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     effects = tuple(effects)
     models = ([join_model(model, effects)] if model
               else [s for s in (join_model(m, effects) for m in DEFAULT_MODELS) if combinable(s)])
-    say(f"baseline: {'fitting ' + models[0] if model else 'comparing ' + ', '.join(models)}")
-    results, summary = compare(rec, models, config.compare, executor, log)
+    results, summary = baseline_fits(rec, models, model is not None, config, executor, log, from_comparison)
     current = results[summary["best"]]
     mismatch = _locate(current, rng, config)
     baseline, baseline_map = current, mismatch
@@ -245,6 +249,25 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
             mismatch = _locate(current, rng, config)
     return Diagnosis(baseline, baseline_map, rankings, trials, current, mismatch, None if model else summary,
                      time.perf_counter() - started, recheck, not_fitted)
+
+
+def baseline_fits(rec, models: list, named: bool, config: DiagnoseConfig, executor, log,
+                  folder=None) -> tuple[dict, dict]:
+    """compare's (results, summary) of the baseline ``models`` (``named``: the one model given).
+
+    With a comparison ``folder`` (:class:`~bayesbeam.saved_comparison.SavedComparison`) they are
+    read back from it instead of fitted: the folder must be a comparison of ``rec`` with the
+    diagnosis's fit settings and hold every model of ``models``; a named model it lacks is fitted.
+    """
+    say = log or (lambda _text: None)
+    saved = None if folder is None else SavedComparison(folder, rec, config.compare.fit)
+    if saved is None or (named and models[0] not in saved.models):
+        say(f"baseline: {'fitting ' + models[0] if named else 'comparing ' + ', '.join(models)}"
+            + ("" if saved is None else f" (not in {folder})"))
+        return compare(rec, models, config.compare, executor, log)
+    results = saved.results(models)
+    say(f"baseline: {', '.join(models)} read from the comparison in {folder}")
+    return results, saved.summary(models)
 
 
 def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log,
@@ -735,7 +758,7 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     if d.unexplained:
         text.append("Unexplained: " + "; ".join(
             f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz, {r['time_s'][0]:.3g}-{r['time_s'][1]:.3g} s on "
-            f"{r['sensor']} ({r['note']}; {r['misfit_share']:.1%} of the channel's signal)"
+            f"{r['sensor']} ({r['note']}; {share_words(r['misfit_share'])})"
             for r in d.remaining()) + ".")
     if d.negligible():
         text.append(f"{len(d.negligible())} region(s) stand statistically above the noise but carry less than "
