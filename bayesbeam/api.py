@@ -332,10 +332,9 @@ class Diagnosis:
         """Each model fitted (baseline, candidates, damping re-check) as InferenceData, by name."""
         if self.posteriors is None:
             from bayesbeam.report.compare_outputs import inference_data
+            from bayesbeam.report.diagnose_outputs import fitted_models
 
-            d = self.result
-            models = (d.baseline, *(t.result for t in d.trials), *(d.recheck.results.values() if d.recheck else ()))
-            self.posteriors = {r.name: inference_data(r) for r in models}
+            self.posteriors = {name: inference_data(r) for name, r in fitted_models(self.result).items()}
         return self.posteriors
 
     @property

@@ -697,7 +697,8 @@ class BeamModel:
         if self.recording.excitation.kind != "force" or not self.batches:
             raise ValueError("batched force-sample responses need a linear model of a recording with a "
                              "measured force")
-        return self._batch(params, np.asarray(lags))
+        y, unit = self._unit_batch(params)
+        return y, lagged_samples(self.grid, fft.irfft(unit, self.grid.n_fft, axis=0), np.asarray(lags))
 
     def simulate_with_input_batch(self, params: Sequence, spectra: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(:meth:`simulate_batch`, responses (P, n_sensors, K, n_samples) to the force inputs of
@@ -705,12 +706,11 @@ class BeamModel:
         if self.recording.excitation.kind != "force" or not self.batches:
             raise ValueError("batched force-input responses need a linear model of a recording with a "
                              "measured force")
-        y, unit = self._batch(params)
+        y, unit = self._unit_batch(params)
         return y, self.grid.samples_last(unit.transpose(1, 2, 0)[:, :, None, :] * spectra.T)
 
-    def _batch(self, params: Sequence, lags: np.ndarray | None = None):
-        """(outputs (n, P, c), the spectra (n_freq, P, c) of the response to a unit force sample at
-        t = 0, or its samples at ``lags`` (len(lags), P, c) when given)."""
+    def _batch(self, params: Sequence):
+        """(outputs (n, P, c), the transfer functions (n_freq, P, c), the checked values of each set)."""
         values = [self.values(p) for p in params]
         systems = [self._system(v) for v in values]
         placed = [self._placed_transfer(s, v) for s, v in zip(systems, values)]
@@ -718,10 +718,12 @@ class BeamModel:
         y = self.grid.samples(h * self._delayed_batch(self.drive, values))
         if self.recording.excitation.kind == "release":
             y += np.stack([static for _, static in placed])[None]
-        unit = h * self._delayed_batch(self._unit_drive, values)
-        if lags is None:
-            return y, unit
-        return y, lagged_samples(self.grid, fft.irfft(unit, self.grid.n_fft, axis=0), lags)
+        return y, h, values
+
+    def _unit_batch(self, params: Sequence) -> tuple[np.ndarray, np.ndarray]:
+        """(outputs (n, P, c), the spectra (n_freq, P, c) of the response to a unit force sample at t = 0)."""
+        y, h, values = self._batch(params)
+        return y, h * self._delayed_batch(self._unit_drive, values)
 
     def _delayed_batch(self, drive: np.ndarray, values: Sequence[dict]) -> np.ndarray:
         """:meth:`_delayed` for each set (n_freq, P, c); ``drive`` broadcast when no set is delayed."""

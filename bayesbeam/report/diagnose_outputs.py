@@ -14,10 +14,16 @@ def write_diagnosis(diagnosis, summary: dict, out_dir) -> list[Path]:
     """Write the outputs of ``diagnosis`` and its summary ``diagnosis.to_dict()``."""
     out = Path(out_dir)
     (out / "posteriors").mkdir(parents=True, exist_ok=True)
-    recheck = diagnosis.recheck.results.values() if diagnosis.recheck else ()
-    results = {r.name: r for r in (diagnosis.baseline, *(t.result for t in diagnosis.trials), *recheck)}
+    results = fitted_models(diagnosis)
     written = [write_netcdf(inference_data(r), out / "posteriors" / f"{posterior_file_name(m)}.nc")
                for m, r in results.items()]
     written.append(write_report(diagnosis, summary, out / "report.html"))
     written.append(write_json(summary, out / "diagnosis.json"))
     return written
+
+
+def fitted_models(diagnosis) -> dict:
+    """Every model a diagnosis fitted, by name: the baseline, each augmented model tried and each
+    model of the damping re-check."""
+    recheck = diagnosis.recheck.results.values() if diagnosis.recheck else ()
+    return {r.name: r for r in (diagnosis.baseline, *(t.result for t in diagnosis.trials), *recheck)}
