@@ -135,7 +135,7 @@ def test_fit_object(recording, tmp_path):
         reopened.plot_trace()
 
 
-#: a diagnosis the model-comparison study wrote (committed with its posteriors)
+#: a diagnosis the model-comparison study wrote (its posteriors are committed: see .gitignore)
 DIAGNOSIS = Path(__file__).parents[1] / "studies/model_comparison/paper_rootcomp_hammer/diagnose"
 
 
