@@ -90,9 +90,9 @@ def _recording(recording, args) -> Recording:
 
 
 def _log(args):
-    from bayesbeam.inference.sampler import stderr_progress
+    from bayesbeam.progress import Progress
 
-    return None if args.quiet else stderr_progress
+    return Progress(enabled=not args.quiet)
 
 
 def _folder(folder, overwrite: bool) -> Path:
@@ -239,9 +239,8 @@ def run_fit(args, rec: Recording, backend_path=None) -> Fit:
     from bayesbeam.cli.fit import fit_config, walker_pool
     from bayesbeam.inference import fit as fit_model
 
-    log = _log(args)
     result = fit_model(rec, model_spec(args.model, args.effect), fit_config(args), pool=walker_pool(args),
-                       backend_path=backend_path, resume=getattr(args, "resume", False), log=log, progress=log)
+                       backend_path=backend_path, resume=getattr(args, "resume", False), log=_log(args))
     return Fit(result.summary, result.idata, result, recording_truths(rec))
 
 

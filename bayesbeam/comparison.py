@@ -35,6 +35,7 @@ from bayesbeam.inference.evidence import combine_runs, laplace_reference, matche
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
 from bayesbeam.inference.results import parameter_unit
 from bayesbeam.inference.screens import bic, laplace_log_evidence, pointwise_matrix, psis_lfo, psis_loo
+from bayesbeam.progress import as_progress
 
 #: the paper's three models plus the single mechanisms
 DEFAULT_MODELS = ("q1", "q2", "q3", "air", "strain_rate")
@@ -155,8 +156,9 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     """Compare ``models`` (names, or named sets of :data:`MODEL_SETS`) on ``rec``: ``(results, summary)``.
 
     ``results`` maps each model to its :class:`ModelResult`; ``summary`` is the JSON-ready
-    comparison (see :func:`summarise`). ``log``: a callable taking a line of progress, or None.
-    ``starts``: model -> parameter values to optimise from as well (see
+    comparison (see :func:`summarise`). ``log``: a :class:`~bayesbeam.progress.Progress` (notes
+    and a bar per stage: optimising, evidence, predictive checks), a callable taking a line of
+    text, or None. ``starts``: model -> parameter values to optimise from as well (see
     :func:`~bayesbeam.inference.fit.choose_discretisation`). ``rivals``: model -> Evidence of
     models fitted before, not refitted and not in the results, that may lead when :func:`beaten`
     decides which repeats to skip.
@@ -166,20 +168,23 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     models = expand_model_sets(models)
     seeds = np.random.SeedSequence(config.seed).spawn(3)
     started = time.perf_counter()
-    say = log or (lambda _text: None)
-    say(f"optimising {len(models)} models ({', '.join(models)})")
-    stage1 = executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i), (starts or {}).get(m))
-                                          for i, m in enumerate(models)])
+    progress = as_progress(log)
+    progress(f"comparing {len(models)} models: {', '.join(models)}")
+    with progress.stage("optimising", len(models), "model") as bar:
+        stage1 = executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i), (starts or {}).get(m))
+                                              for i, m in enumerate(models)], bar=bar)
     posteriors = {m: problem.posterior for m, (problem, _, _) in zip(models, stage1)}
-    say(f"evidence: {len(models) * config.repeats} SMC runs ({config.repeats} per model)")
-    evidences, stopped = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,
-                                                                            optimum.covariance), 0)
-                                    for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))},
-                                   config, seeds[1], executor, rivals or {}, say, _ceilings(posteriors, stage1))
-    evidences = settle(evidences, posteriors, config, seeds[1], executor, say, skip=set(stopped))
-    say("posterior predictive checks")
-    checks = executor.map(check_job, [(posteriors[m], evidences[m].samples.reshape(-1, posteriors[m].ndim),
-                                       _seed(seeds[2], i), config.replicates) for i, m in enumerate(models)])
+    with progress.stage("evidence (SMC)", len(models) * config.repeats, "run") as bar:
+        evidences, stopped = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,
+                                                                                optimum.covariance), 0)
+                                        for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))},
+                                       config, seeds[1], executor, rivals or {}, progress,
+                                       _ceilings(posteriors, stage1), bar)
+    evidences = settle(evidences, posteriors, config, seeds[1], executor, progress, skip=set(stopped))
+    with progress.stage("predictive checks", len(models), "model") as bar:
+        checks = executor.map(check_job, [(posteriors[m], evidences[m].samples.reshape(-1, posteriors[m].ndim),
+                                           _seed(seeds[2], i), config.replicates) for i, m in enumerate(models)],
+                              bar=bar)
     results = {}
     for (model, (problem, optimum, record)), (check, pointwise) in zip(zip(models, stage1), checks):
         screens = {"bic": bic(problem.posterior, optimum),
@@ -192,11 +197,11 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
 
 
 def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict | None = None,
-              say=None, ceilings: dict | None = None) -> tuple[dict, dict]:
+              say=None, ceilings: dict | None = None, bar=None) -> tuple[dict, dict]:
     """(Evidence per model, why each stopped model was stopped): ``config.repeats`` SMC runs per
     model, combined. ``jobs`` maps a model to (its index, its posterior, the reference, a seed
     offset); a run's seed is ``(index * 1000 + offset + repeat)``, so a repeat's run is the same
-    whether or not others were skipped. With ``rivals`` (model -> Evidence of models fitted
+    whether or not others were skipped (``bar`` advances per run). With ``rivals`` (model -> Evidence of models fitted
     before; None: no early stop) and ``config.early_stop`` set, the first :data:`FIRST_WAVE`
     repeats run first and the models :func:`beaten` (with ``ceilings``) then get no more. The
     model with the highest ceiling, the likely leader, runs all its repeats in the first wave: a
@@ -206,7 +211,7 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
     first = FIRST_WAVE if early else config.repeats
     favourite = max(jobs, key=lambda m: ceilings.get(m, -np.inf)) if early and ceilings else None
     runs = _runs(jobs, {m: range(config.repeats if m == favourite else first) for m in jobs},
-                 config, seeds, executor)
+                 config, seeds, executor, bar)
     stopped = {}
     if early:
         # the highest log likelihood seen, at the optimum or on any particle: an optimum left in a
@@ -218,8 +223,10 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
         for m, why in stopped.items():
             if say:
                 say(f"evidence of {m} {why}")
-        more = _runs(jobs, {m: range(len(runs[m]), config.repeats) for m in jobs if m not in stopped},
-                     config, seeds, executor)
+        left = {m: range(len(runs[m]), config.repeats) for m in jobs if m not in stopped}
+        if bar is not None:
+            bar.retotal(bar.done + sum(len(r) for r in left.values()))
+        more = _runs(jobs, left, config, seeds, executor, bar)
         runs = {m: r + more.get(m, []) for m, r in runs.items()}
     return {m: combine_runs(r) for m, r in runs.items()}, stopped
 
@@ -232,7 +239,7 @@ def _ceilings(posteriors: dict, stage1) -> dict:
             for m, (_, optimum, _) in zip(posteriors, stage1)}
 
 
-def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor) -> dict:
+def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor, bar=None) -> dict:
     """The SMC runs of each model's ``repeats`` (model -> repeat indices) for the models of
     ``jobs`` (see :func:`_evidence`), those of the model with the most first."""
     args, owners = [], []
@@ -242,7 +249,7 @@ def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor) -> 
         for r in repeats[m]:
             args.append((post, reference, _seed(seeds, i * 1000 + offset + r), particles, config.min_moved))
             owners.append(m)
-    runs = executor.map(smc_job, args) if args else []
+    runs = executor.map(smc_job, args, bar=bar) if args else []
     return {m: [run for run, o in zip(runs, owners) if o == m] for m in repeats}
 
 
@@ -281,7 +288,7 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
     return out
 
 
-def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, say, skip=()) -> dict:
+def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, log, skip=()) -> dict:
     """A second evidence pass for every model (but those of ``skip``, stopped as beaten) whose
     repeats spread by more than :data:`EVIDENCE_SD_MAX`, from a reference fitted to its first
     pass's posterior particles (:func:`~bayesbeam.inference.evidence.matched_reference`; why
@@ -291,10 +298,12 @@ def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, exec
     retry = [m for m, e in evidences.items() if e.log_z_sd > EVIDENCE_SD_MAX and m not in skip]
     if not retry:
         return evidences
-    say(f"evidence not settled for {', '.join(retry)}: a second pass from its posterior particles")
+    progress = as_progress(log)
+    progress(f"evidence not settled for {', '.join(retry)}: a second pass from its posterior particles")
     index = {m: i for i, m in enumerate(evidences)}
-    second, _ = _evidence({m: (index[m], posteriors[m], matched_reference(posteriors[m].priors, evidences[m]), 500)
-                           for m in retry}, config, seeds, executor)
+    with progress.stage("evidence, second pass", len(retry) * config.repeats, "run") as bar:
+        second, _ = _evidence({m: (index[m], posteriors[m], matched_reference(posteriors[m].priors, evidences[m]), 500)
+                               for m in retry}, config, seeds, executor, bar=bar)
     return {m: replace(second[m], first_pass=e) if m in second else e for m, e in evidences.items()}
 
 

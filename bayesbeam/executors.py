@@ -1,7 +1,8 @@
 """Where independent jobs run: this process, local worker processes, MPI ranks or a Dask cluster.
 
 ``get_executor(None | "local" | "serial" | "mpi" | "tcp://host:8786", processes)`` returns an
-object with ``map(fn, *iterables) -> list`` (results in order) and ``close()``. Jobs must be module-level
+object with ``map(fn, *iterables, bar=None) -> list`` (results in order; ``bar``, a
+:class:`bayesbeam.progress.Bar`, advances as each job finishes, in whatever order) and ``close()``. Jobs must be module-level
 functions of picklable arguments. Local processes are spawned (not forked), so a job sees a fresh
 interpreter and BLAS is limited to one thread per worker (two workers on two cores, not two
 workers each starting two BLAS threads). A local worker exits when the process that started it
@@ -14,6 +15,7 @@ import os
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import as_completed as futures_as_completed
 
 #: address schemes of a Dask scheduler
 DASK_SCHEMES = ("tcp://", "tls://", "inproc://", "ucx://")
@@ -26,8 +28,12 @@ class SerialExecutor:
 
     workers = 1
 
-    def map(self, fn, *iterables) -> list:
-        return list(map(fn, *iterables))
+    def map(self, fn, *iterables, bar=None) -> list:
+        results = []
+        for args in zip(*iterables):
+            results.append(fn(*args))
+            _advance(bar)
+        return results
 
     def close(self) -> None:
         pass
@@ -47,11 +53,25 @@ class LocalExecutor:
         self._pool = ProcessPoolExecutor(processes, mp_context=mp.get_context("spawn"),
                                          initializer=_exit_with_parent, initargs=(os.getpid(),))
 
-    def map(self, fn, *iterables) -> list:
-        return list(self._pool.map(fn, *iterables))
+    def map(self, fn, *iterables, bar=None) -> list:
+        return _gather([self._pool.submit(fn, *args) for args in zip(*iterables)], futures_as_completed, bar)
 
     def close(self) -> None:
         self._pool.shutdown()
+
+
+def _advance(bar) -> None:
+    if bar is not None:
+        bar.advance()
+
+
+def _gather(futures: list, completed, bar) -> list:
+    """The futures' results in order, ``bar`` advanced as each finishes (``completed``: the
+    library's as_completed)."""
+    if bar is not None:
+        for _ in completed(futures):
+            bar.advance()
+    return [f.result() for f in futures]
 
 
 #: how often a local worker checks that the process that started it is still there (s)
@@ -79,9 +99,10 @@ class DaskExecutor:
         self.client = Client(address) if self._own else address
         self.workers = max(1, sum(self.client.nthreads().values()))
 
-    def map(self, fn, *iterables) -> list:
-        futures = self.client.map(fn, *iterables, pure=False)
-        return self.client.gather(futures)
+    def map(self, fn, *iterables, bar=None) -> list:
+        from distributed import as_completed
+
+        return _gather(self.client.map(fn, *iterables, pure=False), as_completed, bar)
 
     def close(self) -> None:
         if self._own:
@@ -94,8 +115,8 @@ class MPIExecutor:
     def __init__(self):
         self._pool = mpi_pool_class()()
 
-    def map(self, fn, *iterables) -> list:
-        return list(self._pool.map(fn, *iterables))
+    def map(self, fn, *iterables, bar=None) -> list:
+        return _gather([self._pool.submit(fn, *args) for args in zip(*iterables)], futures_as_completed, bar)
 
     def close(self) -> None:
         self._pool.shutdown()

@@ -159,9 +159,9 @@ class RecordingExecutor(SerialExecutor):
     def __init__(self):
         self.waves = []
 
-    def map(self, fn, *iterables):
+    def map(self, fn, *iterables, bar=None):
         self.waves.append([args[2] for args in iterables[0]])
-        return super().map(fn, *iterables)
+        return super().map(fn, *iterables, bar=bar)
 
 
 def test_the_model_with_the_highest_ceiling_runs_all_its_repeats_in_the_first_wave(monkeypatch):

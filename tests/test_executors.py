@@ -1,10 +1,14 @@
-"""Executors: the same jobs give the same results serially, in local processes and on Dask."""
+"""Executors: the same jobs give the same results serially, in local processes and on Dask, and
+advance a progress bar as each job finishes."""
+import io
+
 import numpy as np
 import pytest
 
 from bayesbeam.comparison import CompareConfig, compare
 from bayesbeam.executors import DaskExecutor, LocalExecutor, SerialExecutor, get_executor
 from bayesbeam.inference.fit import FitConfig
+from bayesbeam.progress import Progress
 from tests.inference import cases
 
 
@@ -33,6 +37,19 @@ def test_local_processes_keep_the_order():
         assert executor.map(square, range(7)) == [x * x for x in range(7)]
     finally:
         executor.close()
+
+
+@pytest.mark.parametrize("processes", [1, 2])
+def test_a_bar_advances_once_per_finished_job(processes):
+    executor = get_executor("local", processes)
+    out = io.StringIO()
+    try:
+        with Progress(file=out).stage("squares", 7) as bar:
+            assert executor.map(square, range(7), bar=bar) == [x * x for x in range(7)]
+            assert bar.done == 7
+    finally:
+        executor.close()
+    assert "squares" in out.getvalue() and "7/7" in out.getvalue()
 
 
 #: a program that starts a local worker, prints its pid, then keeps it busy with a long job
@@ -97,10 +114,12 @@ def test_a_comparison_on_a_dask_cluster_equals_the_serial_one(cluster):
     _, serial = compare(rec, ["air", "q1"], config, SerialExecutor())
     executor = get_executor(cluster.scheduler_address)
     assert isinstance(executor, DaskExecutor) and executor.workers == 2
+    out = io.StringIO()
     try:
-        _, dask = compare(rec, ["air", "q1"], config, executor)
+        _, dask = compare(rec, ["air", "q1"], config, executor, log=Progress(file=out))
     finally:
         executor.close()
+    assert "evidence (SMC)" in out.getvalue() and "4/4" in out.getvalue()     # 2 models x 2 repeats
     assert dask["ranking"] == serial["ranking"]
     for m in ("air", "q1"):
         assert dask["models"][m]["log_evidence"] == serial["models"][m]["log_evidence"]

@@ -29,7 +29,7 @@ def add_arguments(p) -> None:
 
 def run(args) -> int:
     from bayesbeam.comparison import compare
-    from bayesbeam.inference.sampler import stderr_progress
+    from bayesbeam.progress import Progress
     from bayesbeam.report.compare_outputs import write_comparison
     from bayesbeam.report.fit_outputs import write_json
 
@@ -37,7 +37,7 @@ def run(args) -> int:
     models = model_list(args.models, args.effect)
     config = comparison_config(args)
     targets = _targets(args.recordings, out)
-    say = (lambda _text: None) if args.quiet else stderr_progress
+    say = Progress(enabled=not args.quiet)
     executor = job_executor(args)
     try:
         for source, target in targets:

@@ -26,6 +26,7 @@ from bayesbeam.inference.sampler import (
 )
 from bayesbeam.io import RecordingError
 from bayesbeam.model import BeamModel
+from bayesbeam.progress import as_progress
 from bayesbeam.response.linear import PASSBAND
 from bayesbeam.response.signals import EDGE, decimate, force_noise
 
@@ -240,13 +241,14 @@ class FitResult:
 
 
 def fit(rec, model="q1", config: FitConfig | None = None, *, pool=None, backend_path=None,
-        resume: bool = False, log=None, progress=None) -> FitResult:
+        resume: bool = False, log=None) -> FitResult:
     """Sample the posterior of ``model``'s parameters given ``rec``.
 
     ``model``: a preset (``"q1"``, ``"q2"``, ``"q3"``), ``+``-joined mechanisms or a list.
     ``pool``: any object with ``map`` whose workers ran :func:`~bayesbeam.inference.sampler.init_worker`
-    (see :func:`~bayesbeam.inference.sampler.local_pool`). ``log``/``progress``: callables taking a
-    line of text (None: silent).
+    (see :func:`~bayesbeam.inference.sampler.local_pool`). ``log``: a
+    :class:`~bayesbeam.progress.Progress` (notes, and a bar for the chains with the time left), a
+    callable taking a line of text, or None (silent).
     """
     from bayesbeam.inference.results import build_inference_data, build_summary
 
@@ -258,10 +260,12 @@ def fit(rec, model="q1", config: FitConfig | None = None, *, pool=None, backend_
     try:
         chains = run_emcee(problem.posterior, optimum, rng, n_walkers=config.walkers,
                            max_steps=config.max_steps, tau_factor=config.tau_factor, pool=pool,
-                           backend_path=backend_path, resume=resume, progress=progress)
+                           backend_path=backend_path, resume=resume, progress=log)
     finally:
         if owned and pool is not None:
             (pool.shutdown if hasattr(pool, "shutdown") else pool.close)()
+    if not chains.converged:
+        as_progress(log)(f"chains NOT converged: {chains.reason}")
     result = FitResult(rec, model if isinstance(model, str) else "+".join(model), problem, optimum,
                        chains, discretisation, config)
     result.idata = build_inference_data(result, rng)

@@ -35,7 +35,6 @@ executor (:class:`PooledBatch`); ``BAYESBEAM_BATCH=0`` evaluates them one by one
 """
 from __future__ import annotations
 
-import sys
 import time
 from dataclasses import dataclass
 
@@ -44,6 +43,7 @@ import numpy as np
 from scipy import optimize
 
 from bayesbeam.inference.posterior import LogPosterior, batching
+from bayesbeam.progress import as_progress
 
 _WORKER_POSTERIOR: LogPosterior | None = None
 
@@ -506,21 +506,26 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
                          f"needs {(n_walkers, ndim)}; rerun without --resume")
     started = time.perf_counter()
     previous_tau = None if state is not None else _tau_at_last_boundary(sampler, chunk)
-    converged, reason = False, f"reached max_steps = {max_steps}"
-    while sampler.iteration < max_steps:
-        # chunks end at multiples of ``chunk``, so a resumed run judges convergence where an
-        # uninterrupted one does (the backend also restores emcee's random state: same draws)
-        steps = min(chunk - sampler.iteration % chunk, max_steps - sampler.iteration)
-        sampler.run_mcmc(state, steps, progress=False)
-        state = None
-        tau = sampler.get_autocorr_time(tol=0)
-        _report(progress, sampler, tau, max_steps)
-        if previous_tau is not None and np.all(np.isfinite(tau)):
-            stable = np.all(np.abs(tau - previous_tau) < 0.05 * tau)
-            if sampler.iteration > tau_factor * np.max(tau) and stable:
-                converged, reason = True, f"chain longer than {tau_factor:g} tau and tau stable to 5%"
-                break
-        previous_tau = tau
+    converged, reason = False, None
+    with as_progress(progress).stage("sampling (emcee)", max_steps, "step") as bar:
+        bar.advance(sampler.iteration)
+        while sampler.iteration < max_steps:
+            # chunks end at multiples of ``chunk``, so a resumed run judges convergence where an
+            # uninterrupted one does (the backend also restores emcee's random state: same draws)
+            steps = min(chunk - sampler.iteration % chunk, max_steps - sampler.iteration)
+            sampler.run_mcmc(state, steps, progress=False)
+            state = None
+            tau = sampler.get_autocorr_time(tol=0)
+            _report(bar, sampler, tau, tau_factor, max_steps, steps, chunk)
+            if previous_tau is not None and np.all(np.isfinite(tau)):
+                stable = np.all(np.abs(tau - previous_tau) < 0.05 * tau)
+                if sampler.iteration > tau_factor * np.max(tau) and stable:
+                    converged, reason = True, f"chain longer than {tau_factor:g} tau and tau stable to 5%"
+                    bar.retotal(sampler.iteration)
+                    break
+            previous_tau = tau
+    if not converged:
+        reason = unconverged_reason(sampler.get_autocorr_time(tol=0), previous_tau, sampler.iteration, tau_factor)
     tau = sampler.get_autocorr_time(tol=0)
     tau_max = float(np.nanmax(tau)) if np.all(np.isfinite(tau)) else sampler.iteration / 10
     burn = burn_in(tau_max, sampler.iteration)
@@ -562,14 +567,30 @@ def initial_ball(post, optimum, n_walkers, rng):
     return np.array(walkers)
 
 
-def _report(progress, sampler, tau, max_steps):
-    if progress is None:
-        return
+def _report(bar, sampler, tau, tau_factor, max_steps, steps, chunk):
+    """Advance the bar by ``steps``; its total becomes the steps the chain will likely need
+    (``tau_factor`` x the largest tau so far, at least one chunk more, at most ``max_steps``), so
+    its time left means something."""
+    bar.advance(steps)
+    if np.all(np.isfinite(tau)):
+        bar.retotal(min(max_steps, max(sampler.iteration + chunk, int(tau_factor * np.max(tau)) + 1)))
     tau_text = f"{np.nanmax(tau):.1f}" if np.any(np.isfinite(tau)) else "?"
-    progress(f"step {sampler.iteration}/{max_steps}  max tau {tau_text}  "
-             f"acceptance {np.mean(sampler.acceptance_fraction):.2f}")
+    bar.describe(f"max tau {tau_text}, acceptance {np.mean(sampler.acceptance_fraction):.2f}")
 
 
-def stderr_progress(text: str) -> None:
-    """Default progress reporter: one line per chunk on stderr."""
-    print(f"  {text}", file=sys.stderr, flush=True)
+def unconverged_reason(tau, previous_tau, n_steps: int, tau_factor: float) -> str:
+    """Why a chain of ``n_steps`` that reached its step limit is not converged, and what to do."""
+    if not np.all(np.isfinite(tau)):
+        return (f"reached max_steps = {n_steps} with no finite autocorrelation time (walkers stuck: "
+                f"acceptance near 0, or a parameter the data do not constrain); check the trace plot and the priors")
+    worst = float(np.max(tau))
+    if n_steps <= tau_factor * worst:
+        return (f"reached max_steps = {n_steps}, shorter than {tau_factor:g} x the largest autocorrelation "
+                f"time ({worst:.0f} steps): about {int(tau_factor * worst)} steps are needed; raise --max-steps")
+    if previous_tau is None:
+        return (f"reached max_steps = {n_steps} after one estimate of the autocorrelation time, too few to "
+                f"see it settle; raise --max-steps")
+    drift = np.max(np.abs(tau - previous_tau) / tau)
+    return (f"reached max_steps = {n_steps}: the chain is {n_steps / worst:.0f} tau long but tau still moved "
+            f"{100 * drift:.0f} % in the last chunk (more than 5 %): the walkers are still exploring; "
+            f"raise --max-steps or check the trace plot for a second mode")

@@ -32,8 +32,9 @@ def test_compare_writes_json_report_and_posteriors(recordings, tmp_path, capsys)
     assert (out / "report.html").stat().st_size > 10000 and (out / "damping_per_mode.png").exists()
     idata = az.from_netcdf(out / "posteriors" / "q1.nc")
     assert idata.posterior.sizes["chain"] == 2 and "cdI" in idata.posterior
-    printed = capsys.readouterr().out
-    assert "q1" in printed and "log Z" in printed
+    captured = capsys.readouterr()
+    assert "q1" in captured.out and "log Z" in captured.out
+    assert captured.err == ""                    # --quiet: no notes, no bars
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -1,6 +1,8 @@
 """The optimiser (``sampler.find_optimum``): its global search with missing-physics effects, where
 it starts on the N ladder, its polish, the EI rescan of a given start (``fit.local_starts``), and
-the Laplace covariance at a constraint."""
+the Laplace covariance at a constraint; and what ``run_emcee`` tells its user while it runs and
+when it stops unconverged."""
+import io
 from pathlib import Path
 
 import numpy as np
@@ -9,6 +11,7 @@ import pytest
 from bayesbeam.inference.fit import N_LADDERS, START_PHASE, FitConfig, local_starts, prepare, starting_rung
 from bayesbeam.inference.priors import Prior
 from bayesbeam.inference.sampler import (
+    Optimum,
     _Counter,
     _nelder_mead,
     _neutral_start,
@@ -17,8 +20,11 @@ from bayesbeam.inference.sampler import (
     find_optimum,
     laplace_covariance,
     newton_shift,
+    run_emcee,
+    unconverged_reason,
 )
 from bayesbeam.io import load_recording
+from bayesbeam.progress import Progress
 from tests.inference import cases
 from tests.reference import Hammer, Noise, record
 from tests.reference.recordings import PAPER_DAMPING
@@ -193,3 +199,47 @@ def phase(rec, config, reference, truth, n) -> float:
     at ``truth`` miss ``reference``."""
     f = prepare(rec, "q3", config, n).model.natural_frequencies(truth)[:reference.size]
     return float(np.max(2 * np.pi * 4.0 * np.abs(f - reference)))
+
+
+class _StandardNormal:
+    """A 2-d standard normal log density, the cheapest target emcee can be run on."""
+
+    ndim = 2
+
+    def __call__(self, theta):
+        return -0.5 * float(np.sum(np.square(theta)))
+
+    def log_prob_batch(self, thetas):
+        return -0.5 * np.sum(np.square(thetas), axis=1)
+
+
+def _run(max_steps, out):
+    optimum = Optimum(np.zeros(2), 0.0, np.eye(2), 0)
+    return run_emcee(_StandardNormal(), optimum, np.random.default_rng(2), n_walkers=8, max_steps=max_steps,
+                     chunk=50, progress=Progress(file=out))
+
+
+def test_a_chain_cut_short_says_how_many_steps_it_needs():
+    """100 steps at tau of a few steps is shorter than 50 tau: the reason names the steps needed
+    and the flag; the bar shows the chain's figures."""
+    out = io.StringIO()
+    chains = _run(100, out)
+    assert not chains.converged
+    needed = int(50 * np.max(chains.tau))
+    assert needed > 100 and f"about {needed} steps are needed; raise --max-steps" in chains.reason
+    assert "sampling (emcee)" in out.getvalue() and "max tau" in out.getvalue()
+
+
+def test_a_converged_chain_ends_its_bar_at_the_steps_taken():
+    """The bar's total is re-estimated as 50 x tau: a converged chain closes it full (n/n)."""
+    out = io.StringIO()
+    chains = _run(20000, out)
+    assert chains.converged and chains.n_steps < 20000
+    assert f"{chains.n_steps}/{chains.n_steps}" in out.getvalue()
+
+
+def test_the_other_reasons_name_their_cause():
+    tau = np.array([10.0, 20.0])
+    assert "still moved 100 %" in unconverged_reason(tau, np.array([10.0, 40.0]), 2000, 50.0)
+    assert "no finite autocorrelation time" in unconverged_reason(np.array([np.nan, 1.0]), None, 500, 50.0)
+    assert "too few to see it settle" in unconverged_reason(tau, None, 2000, 50.0)
