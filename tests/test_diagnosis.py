@@ -377,13 +377,15 @@ def test_a_passing_candidate_that_lost_to_a_better_one_is_said_to_have_lost():
 
 
 @pytest.mark.slow
-def test_a_diagnosis_from_a_comparison_decides_as_one_that_fits_its_baseline(monkeypatch, tmp_path):
-    """plumbing: the cheap BeamModel-made root spring diagnosed without --model, once fitting its
-    baseline models and once reading them from the comparison that fit wrote (write_comparison):
-    the same baseline, the same evidence (exactly: JSON reads a float back to itself), the same
-    added effects and final model, and compare() never called for a baseline model. The default
-    models are cut to q1 and q2 to halve the cost: the reuse does not depend on which they are;
-    q2 wins the first comparison here, so the damping re-check starts q1 from the read-back fit."""
+def test_a_diagnosis_from_a_comparison_starts_from_its_baseline(monkeypatch, tmp_path):
+    """plumbing: the cheap BeamModel-made root spring diagnosed without --model from a comparison of
+    the default models written to a folder (write_comparison): compare() is never called for a
+    baseline model, the baseline and its evidences are the comparison's (exactly: JSON reads a
+    float back to itself), and the chain goes on to add the spring. The comparison is the call the
+    diagnosis's own baseline makes (``baseline_fits``: same models, options and seed), and a model
+    read back equals the one compare() returned (tests/test_saved_comparison.py), so a diagnosis
+    fitting its baseline would decide alike. The default models are cut to q1 and q2 to halve the
+    cost; q2 wins the comparison here, so the damping re-check starts q1 from the read-back fit."""
     from importlib import import_module
 
     from bayesbeam.report.compare_outputs import write_comparison
@@ -391,25 +393,21 @@ def test_a_diagnosis_from_a_comparison_decides_as_one_that_fits_its_baseline(mon
 
     dg = import_module("bayesbeam.diagnosis")    # the module: the package's name "diagnose" may be the function
     monkeypatch.setattr(dg, "DEFAULT_MODELS", ("q1", "q2"))
-    calls, outputs, fitted = [], [], dg.compare
+    rec = recording("root_compliance")
+    results, summary = dg.compare(rec, ["q1", "q2"], CONFIG.compare, None)
+    write_comparison(results, summary, tmp_path)
+    calls, fitted = [], dg.compare
 
     def spy(rec, models, *args, **options):
         calls.append(list(models))
-        outputs.append(fitted(rec, models, *args, **options))
-        return outputs[-1]
+        return fitted(rec, models, *args, **options)
 
     monkeypatch.setattr(dg, "compare", spy)
-    rec = recording("root_compliance")
-    fits = diagnose(rec, None, CONFIG)
-    assert calls[0] == ["q1", "q2"]
-    write_comparison(*outputs[0], tmp_path)
-    calls.clear()
     read = diagnose(rec, None, CONFIG, from_comparison=tmp_path)
     assert not {"q1", "q2"} & {m for models in calls for m in models}, calls
     assert calls                                # the augmented models and the re-check were fitted
-    assert read.baseline.name == fits.baseline.name == "q2"
-    assert read.to_dict()["baseline_comparison"] == fits.to_dict()["baseline_comparison"]
-    assert read.baseline.evidence.log_z == fits.baseline.evidence.log_z
-    assert read.added == fits.added == ["root_compliance"]
-    assert read.final.name == fits.final.name
-    assert read.recheck.switched == fits.recheck.switched
+    assert read.baseline.name == summary["best"] == "q2"
+    assert read.baseline.evidence.log_z == results["q2"].evidence.log_z
+    baseline = read.to_dict()["baseline_comparison"]
+    assert {m: baseline[m]["log_evidence"] for m in baseline} == {m: results[m].evidence.log_z for m in results}
+    assert read.added == ["root_compliance"] and read.final.name.endswith("root_compliance")

@@ -15,11 +15,13 @@ no channel's unit, and on the same export whose header leaves the units out it m
 both accelerometers.
 
 ``diagnose`` without a named model (the default damping models compared first, then the screen,
-the augmented fits and the damping re-check) on the imported recording with the tip sensor listed
-first, and on the one whose description lists the tables the other way round, must both add the
-sensor mass at the mid-span sensor, end the damping re-check at q3 + sensor_mass with the 5 g
-inside the 99 % interval of m_s_mid there, and agree on the log Bayes factor of the added mass and
-on the final evidence within the standard errors.
+the augmented fits and the damping re-check) on the imported recording whose description lists
+the mid-span sensor first must add the sensor mass at the mid-span sensor and end the damping
+re-check at q3 + sensor_mass with the 5 g inside the 99 % interval of m_s_mid there. That the
+order changes nothing is asserted exactly, not statistically: the log posterior of q3 +
+sensor_mass at the same named parameter values is the same number on both orders (to rounding),
+and so is the screen's ranking (tests/checks/test_signatures.py names the mid-span sensor in both
+orders); every later step of a diagnosis sees the recording only through them.
 
 One round (``rounds = 1``): one effect is concealed, and a second round's fits (three models
 here) would double a diagnosis's time without bearing on the order. Two worker processes, as
@@ -35,7 +37,7 @@ from bayesbeam.checks.survey import survey
 from bayesbeam.checks.units import unit_check
 from bayesbeam.comparison import CompareConfig
 from bayesbeam.diagnosis import DiagnoseConfig, diagnose
-from bayesbeam.inference.fit import FitConfig
+from bayesbeam.inference.fit import FitConfig, prepare
 from bayesbeam.io import Sensor, TipBody, load_recording
 from bayesbeam.io.importer import import_file
 from tests.inference import cases
@@ -112,7 +114,7 @@ def lab(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def diagnosed(lab, executor):
-    return {order: diagnose(lab[order], None, CONFIG, executor) for order in ("tip_first", "mid_first")}
+    return diagnose(lab["mid_first"], None, CONFIG, executor)
 
 
 def test_the_import_reads_the_export_in_si(lab):
@@ -133,40 +135,35 @@ def test_check_names_no_unit_when_stated_and_g_when_left_out(lab):
     assert [(c["name"], c["unit"]) for c in left_out["channels"]] == [("tip", "g"), ("mid", "g")], left_out
 
 
+def test_the_order_of_the_sensors_does_not_change_the_posterior(lab):
+    """q3 + sensor_mass on both orders, at N = 8 quintic: the same parameter names, and at 20 sets of
+    values drawn around the truth the two log posteriors agree to 1e-9 relative (the channels' sums
+    are taken in another order: rounding only). The values of m_s_tip and m_s_mid swapped (a mass
+    read by position, not by name) cost far more than 100 nats: the comparison has power."""
+    config = FitConfig(degree=5, max_frequency=200.0, effects=("sensor_mass",))
+    tip_first, mid_first = (prepare(lab[order], "q3", config, 8).posterior for order in ("tip_first", "mid_first"))
+    assert sorted(tip_first.names) == sorted(mid_first.names)
+    rng = np.random.default_rng(5)
+    truth = {"EI": cases.ALU_BEAM.nominal_EI, **ALU_DAMPING["q3"], "m_s_tip": TIP_MASS, "m_s_mid": MID_MASS}
+    for _ in range(20):
+        values = {n: truth.get(n, p.to_value(p.median())) * np.exp(0.05 * rng.standard_normal())
+                  for n, p in zip(tip_first.names, tip_first.priors)}
+        a, b = tip_first(tip_first.coordinates(values)), mid_first(mid_first.coordinates(values))
+        assert np.isfinite(a) and abs(a - b) <= 1e-9 * abs(a), (values, a, b)
+    swapped = {**values, "m_s_tip": values["m_s_mid"], "m_s_mid": values["m_s_tip"]}
+    assert mid_first(mid_first.coordinates(swapped)) < a - 100
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("order", ["tip_first", "mid_first"])
-def test_the_concealed_mass_is_found_at_the_mid_span_sensor(diagnosed, order):
+def test_the_concealed_mass_is_found_at_the_mid_span_sensor(diagnosed):
     """Added: sensor_mass, at the mid-span sensor; the damping re-check ends at q3 with the mass,
-    and there the concealed 5 g lie inside m_s_mid's 99 % interval (two orders: a 99 % interval
-    misses by chance 2 % of the time). The interval is the final model's: the mass first fitted
-    beside the first comparison's damping model (air) is biased by that model's wrong damping."""
-    d = diagnosed[order]
-    summary = d.to_dict()
-    assert d.added == ["sensor_mass"], summary["summary"]
+    and there the concealed 5 g lie inside m_s_mid's 99 % interval. The interval is the final
+    model's: the mass first fitted beside the first comparison's damping model (air) is biased by
+    that model's wrong damping."""
+    summary = diagnosed.to_dict()
+    assert diagnosed.added == ["sensor_mass"], summary["summary"]
     assert summary["added_labels"] == ["sensor_mass at mid"], summary["summary"]
     assert summary["final"]["model"] == "q3+sensor_mass", summary["summary"]
-    draws = d.final.values()[..., d.final.problem.posterior.names.index("m_s_mid")]
+    draws = diagnosed.final.values()[..., diagnosed.final.problem.posterior.names.index("m_s_mid")]
     interval = np.quantile(draws, [0.005, 0.995])
     assert interval[0] <= MID_MASS <= interval[1], (interval, summary["summary"])
-
-
-@pytest.mark.slow
-def test_both_orders_agree_on_the_evidence(diagnosed):
-    """The same models, the same data: the first comparison ranks the damping models alike (every
-    pair whose log evidences lie more than three combined standard errors apart in one order keeps
-    its order in the other), and the added mass's log Bayes factor and the final model's log
-    evidence agree within three combined standard errors (the SMC repeats' spread; the orders draw
-    different random numbers, the parameters being listed in another order)."""
-    a, b = diagnosed["tip_first"], diagnosed["mid_first"]
-    za, zb = (d.to_dict()["baseline_comparison"] for d in (a, b))
-    assert set(za) == set(zb)
-    for m in za:
-        for n in za:
-            gap = za[m]["log_evidence"] - za[n]["log_evidence"]
-            if gap > 3 * np.hypot(za[m]["log_evidence_sd"], za[n]["log_evidence_sd"]):
-                assert zb[m]["log_evidence"] > zb[n]["log_evidence"], (m, n, za, zb)
-    ta, tb = (next(t for t in d.trials if t.added) for d in (a, b))
-    assert abs(ta.log_bayes_factor - tb.log_bayes_factor) <= 3 * np.hypot(ta.log_bayes_factor_sd,
-                                                                           tb.log_bayes_factor_sd)
-    za, zb = a.final.evidence, b.final.evidence
-    assert abs(za.log_z - zb.log_z) <= 3 * np.hypot(za.log_z_sd, zb.log_z_sd)

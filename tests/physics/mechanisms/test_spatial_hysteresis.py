@@ -122,6 +122,23 @@ def test_fast_assembly_matches_the_dense_bracket_form(length, n, root, b):
         assert np.abs(d - ref).max() <= 1e-13 * np.abs(ref).max()
 
 
+@pytest.mark.parametrize("n, b", [(8, 0.003), (16, 0.002), (32, 0.01), (12, 0.02)])
+def test_the_blocks_skipped_for_a_narrow_kernel_hold_nothing(monkeypatch, n, b):
+    """A narrow kernel's far offsets (every value below exp(-UNDERFLOW) = 4e-18 of its peak) are
+    left out: D equals the assembly of every offset to 1e-14 of max |D| (measured 1.4e-15: the
+    sums taken in another order; the blocks left out are 4e-18 of it at most; a threshold of
+    exp(-20) fails it), and some offsets were left out in each case."""
+    from bayesbeam.physics.mechanisms import spatial_hysteresis as module
+
+    basis = SplineBasis(1.3, n, degree=5)
+    assembly = module._assembly(basis, points_per_interval(basis.h, b))
+    assert np.searchsorted(assembly.closest, 2 * b * b * module.UNDERFLOW) < n
+    skipped = assembly.unit_matrix(b)
+    monkeypatch.setattr(module, "UNDERFLOW", np.inf)
+    full = assembly.unit_matrix(b)
+    assert np.abs(skipped - full).max() <= 1e-14 * np.abs(full).max()
+
+
 def test_damping_is_linear_in_a_and_repeatable():
     """The cached (a, b)-independent part is not modified by a call."""
     ops = BeamOperators(SplineBasis(1.0, 16), rho_a=1.0)
