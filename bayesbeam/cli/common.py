@@ -103,7 +103,7 @@ def add_run_options(p) -> None:
                    metavar="{serial,local,mpi,tcp://HOST:PORT}", help=EXECUTOR_HELP)
     p.add_argument("--processes", type=positive_int, metavar="N",
                    help=f"local worker processes (default: all cores, {os.cpu_count()} here)")
-    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--quiet", action="store_true", help="no progress bars or notes on stderr")
 
 
 def job_executor(args):
