@@ -102,11 +102,15 @@ def test_summary_has_the_documented_keys(result):
 
 
 def test_short_run_reports_not_converged_with_the_reason(result):
-    """300 steps < 50 tau: converged is False and the reason names the cap."""
+    """300 steps < 50 tau: converged is False and the reason names the cap, the steps needed (50
+    x the largest tau) and the flag to raise."""
     s = result.summary
     assert s["convergence"]["n_steps"] == STEPS < 50 * s["tau"]
     assert s["converged"] is False and result.converged is False
-    assert s["convergence"]["reason"] == f"reached max_steps = {STEPS}"
+    needed = int(50 * max(result.chains.tau))
+    assert s["convergence"]["reason"] == (f"reached max_steps = {STEPS}, shorter than 50 x the largest "
+                                          f"autocorrelation time ({max(result.chains.tau):.0f} steps): about "
+                                          f"{needed} steps are needed; raise --max-steps")
 
 
 def test_a_run_meeting_the_rule_reports_converged(result):
