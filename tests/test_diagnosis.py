@@ -1,5 +1,6 @@
 """The diagnosis's rules (candidates, decisions, the damping re-check), a free decay, a residual no
-catalogue effect can explain, and diagnosis.json's layout.
+catalogue effect can explain, and a diagnosis from a comparison (diagnosis.json's layout is
+tests/report/test_diagnosis_report.py's, beside the report of the same diagnosis).
 
 Naming concealed effects and leaving null recordings alone are tested on recordings the model did
 not make: tests/acceptance/test_diagnose.py. The free decay and the unexplained line are too,
@@ -8,14 +9,13 @@ here: the reference simulator's recordings of tests/diagnosis_cases.py (paper be
 and 20 map replicates. The layout and the bookkeeping are plumbing and read the cheap
 BeamModel-made case of tests/diagnosis_cases.py.
 """
-import json
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from bayesbeam.diagnosis import DECISIVE, diagnose, flags, improved
-from tests.diagnosis_cases import REFERENCE_CONFIG, diagnosed, free_decay, recording, reference
+from bayesbeam.diagnosis import diagnose, flags, improved
+from tests.diagnosis_cases import REFERENCE_CONFIG, free_decay, recording, reference
 
 #: the map's RMS standardized residual of a right model is 1 up to its own scatter: it averages
 #: ~500 band coordinates (sd of the mean square ~ sqrt(2/500) = 0.06) over a floor estimated
@@ -51,24 +51,6 @@ def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
     (region,) = d.remaining()
     assert region["band_hz"][0] <= 80.0 <= region["band_hz"][1] and region["sensor"] == "accel_tip"
     assert "Unexplained: " in d.to_dict()["summary"]
-
-
-@pytest.mark.slow
-def test_diagnosis_json_has_its_summary_layout():
-    """plumbing: diagnosis.json's keys, on the cheap BeamModel-made root spring's diagnosis (that the
-    spring is named on data the model did not make is tests/acceptance/test_diagnose.py's)."""
-    summary = json.loads(json.dumps(diagnosed("root_compliance").to_dict()))
-    assert {"baseline", "mismatch", "candidates", "added", "unexplained", "final"} <= set(summary)
-    assert {"model", "log_evidence", "rms_standardized_residual"} <= set(summary["baseline"])
-    assert {"band_hz", "time_s", "sensor", "note"} <= set(summary["mismatch"][0])
-    candidate = summary["candidates"][0]
-    assert candidate["effect"] == "root_compliance" and candidate["delta_log_evidence"] > DECISIVE
-    assert {"mean", "q05", "q95"} <= set(candidate["parameters"]["k_theta"])
-    assert all({"floor_sd", "fitted_sd", "inflation"} <= set(n) for n in candidate["noise"].values())
-    assert summary["final"]["model"] == "q1+root_compliance"
-    # the final model's whole posterior: after a damping re-check it is not any trial's
-    assert {"EI", "gamma", "cdI", "k_theta"} <= set(summary["final"]["parameters"])
-    assert summary["final"]["parameters"]["k_theta"] == candidate["parameters"]["k_theta"]
 
 
 def _map(rms, cells=0, mode_flags=(), delay=False, latent_force=False):

@@ -1,5 +1,6 @@
 """The diagnosis report: one self-contained HTML file with the maps before and after, the per-mode
-table, the decisions and the added effect's posterior, whose every figure loads in a browser.
+table, the decisions and the added effect's posterior, whose every figure loads in a browser; and
+the layout of diagnosis.json, written beside it.
 
 Plumbing: the shared cheap BeamModel-made diagnoses (tests/diagnosis_cases.py) feed it, a
 concealed root spring (found and added) and a null recording (nothing flagged, nothing fitted);
@@ -7,6 +8,7 @@ diagnoses on data the model did not make are tests/acceptance/test_diagnose.py's
 report and the report's own script counts the images that decoded.
 """
 import html
+import json
 import re
 import shutil
 import subprocess
@@ -14,7 +16,7 @@ import subprocess
 import pytest
 
 from bayesbeam.comparison import strength
-from bayesbeam.diagnosis import effect_parameters, paragraph
+from bayesbeam.diagnosis import DECISIVE, effect_parameters, paragraph
 from bayesbeam.report.diagnosis import SECTIONS, lead, write_report
 from tests.diagnosis_cases import diagnosed
 
@@ -313,3 +315,22 @@ def test_r_hat_is_flagged_past_compares_limit_and_shown_apart_from_it(r_hat, fla
     assert "1.050<" not in row or not flagged
     low, high = re.search(r"<td>([-0-9.e]+) to ([-0-9.e]+)</td>", row).groups()     # the interval's ends differ
     assert low != high
+
+
+@pytest.mark.slow
+def test_diagnosis_json_has_its_summary_layout():
+    """plumbing: diagnosis.json's keys, on the root spring's diagnosis whose report the tests above
+    render (that the spring is named on data the model did not make is
+    tests/acceptance/test_diagnose.py's)."""
+    summary = json.loads(json.dumps(diagnosed("root_compliance").to_dict()))
+    assert {"baseline", "mismatch", "candidates", "added", "unexplained", "final"} <= set(summary)
+    assert {"model", "log_evidence", "rms_standardized_residual"} <= set(summary["baseline"])
+    assert {"band_hz", "time_s", "sensor", "note"} <= set(summary["mismatch"][0])
+    candidate = summary["candidates"][0]
+    assert candidate["effect"] == "root_compliance" and candidate["delta_log_evidence"] > DECISIVE
+    assert {"mean", "q05", "q95"} <= set(candidate["parameters"]["k_theta"])
+    assert all({"floor_sd", "fitted_sd", "inflation"} <= set(n) for n in candidate["noise"].values())
+    assert summary["final"]["model"] == "q1+root_compliance"
+    # the final model's whole posterior: after a damping re-check it is not any trial's
+    assert {"EI", "gamma", "cdI", "k_theta"} <= set(summary["final"]["parameters"])
+    assert summary["final"]["parameters"]["k_theta"] == candidate["parameters"]["k_theta"]
