@@ -35,12 +35,14 @@ from bayesbeam.inference.evidence import combine_runs, laplace_reference, matche
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
 from bayesbeam.inference.results import parameter_unit
 from bayesbeam.inference.screens import bic, laplace_log_evidence, pointwise_matrix, psis_lfo, psis_loo
+from bayesbeam.io import RecordingError
+from bayesbeam.model import resolve_model
 from bayesbeam.progress import as_progress
 
 #: the paper's three models plus the single mechanisms
 DEFAULT_MODELS = ("q1", "q2", "q3", "air", "strain_rate")
 #: the damping models of the literature since the paper, each on its own (docs/comparison.md);
-#: thermoelastic needs the recording's [material] table
+#: thermoelastic needs the recording's [material] table (left out without it: :func:`material_left_out`)
 LITERATURE_MODELS = ("fractional", "exponential", "thermoelastic", "root_compliance+root_damping")
 #: named sets of models that ``--models`` accepts beside model names
 MODEL_SETS = {"paper": DEFAULT_MODELS, "literature": LITERATURE_MODELS, "all": DEFAULT_MODELS + LITERATURE_MODELS}
@@ -165,11 +167,13 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     """
     config = config or CompareConfig()
     executor = executor or SerialExecutor()
-    models = expand_model_sets(models)
+    models, left_out = material_left_out(rec, expand_model_sets(models))
     seeds = np.random.SeedSequence(config.seed).spawn(3)
     started = time.perf_counter()
     progress = as_progress(log)
     progress(f"comparing {len(models)} models: {', '.join(models)}")
+    for model, why in left_out.items():
+        progress(f"left out {model}: {why}")
     with progress.stage("optimising", len(models), "model") as bar:
         stage1 = executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i), (starts or {}).get(m))
                                               for i, m in enumerate(models)], bar=bar)
@@ -193,7 +197,40 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
         results[model] = ModelResult(model, problem, optimum, record, evidences[model], check, screens,
                                      pointwise, stopped.get(model))
     summary = summarise(rec, results, time.perf_counter() - started, config.fit)
+    if left_out:
+        summary.update(left_out=left_out, verdict=f"{summary['verdict']} {left_out_words(left_out)}")
     return results, summary
+
+
+def material_left_out(rec, models) -> tuple[list[str], dict[str, str]]:
+    """``models`` without those that need the ``[material]`` table ``rec``'s beam.toml lacks
+    (thermoelastic damping), and why each was left out (with how to add the table). When every
+    model needs it, all are kept, and the model refuses the recording (a RecordingError naming
+    the keys to add). A [material] table that is present is never a reason to leave one out: its
+    faults are refused where it is read."""
+    if "material" in rec.extra:
+        return list(models), {}
+    reasons = {m: why for m in models if (why := _material_missing(rec, m))}
+    if len(reasons) == len(models):
+        return list(models), {}
+    return [m for m in models if m not in reasons], reasons
+
+
+def _material_missing(rec, spec: str) -> str | None:
+    """Why ``spec`` cannot be built without a [material] table, or None."""
+    for component in (c for group in resolve_model(spec) for c in group):
+        try:
+            component.bind(rec)
+        except RecordingError as exc:
+            if exc.where == "[material]":
+                return (f"beam.toml has no [material] table, from whose thermal constants {component.name} "
+                        f"damping is computed. Fix: {exc.fix}")
+    return None
+
+
+def left_out_words(left_out: dict) -> str:
+    """The sentence of the verdict (and the diagnosis) naming the models left out and why."""
+    return " ".join(f"{m} was left out: {why}" for m, why in left_out.items())
 
 
 def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict | None = None,

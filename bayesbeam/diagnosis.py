@@ -1,7 +1,9 @@
 r"""What is the best damping model missing? Locate, name, model and show (the diagnosis).
 
-1. **Baseline.** The named model (``model="q3"``), or the best of
-   :data:`bayesbeam.comparison.DEFAULT_MODELS` by evidence, fitted by :func:`bayesbeam.comparison.compare`
+1. **Baseline.** The named model (``model="q3"``), or the best of the damping models
+   (``DiagnoseConfig.models``, default :data:`bayesbeam.comparison.DEFAULT_MODELS`; those that
+   need a ``[material]`` table the recording lacks are left out and reported,
+   :func:`bayesbeam.comparison.material_left_out`) by evidence, fitted by :func:`bayesbeam.comparison.compare`
    (optimum, discretisation, SMC evidence, posterior draws), or read back from a comparison of the
    recording already run (``from_comparison``, :mod:`bayesbeam.saved_comparison`).
 2. **Locate** (:func:`bayesbeam.checks.discrepancy.locate`): where the residual stands above the
@@ -29,7 +31,7 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
    repeats gets no more (:func:`bayesbeam.comparison.beaten`); its evidence is the mean of those.
 5. **Repeat once** (``rounds = 2``) from the augmented model for a second effect.
 6. **Re-check the damping.** When the baseline was chosen by evidence and effects were added, the
-   default damping models are compared again, each with the added effects: the first comparison
+   damping models of step 1 are compared again, each with the added effects: the first comparison
    could not see the missing physics, and a damping model that imitates part of it can win there
    (a root spring made q2 beat the true q1 by 361 nats on ``paper_rootcomp_hammer``). The final
    model becomes another damping model + effects only when that model's log evidence beats it by
@@ -53,15 +55,28 @@ insignificant: there is nothing to explain, and ``added`` is empty.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locate, share_words
 from bayesbeam.checks.signatures import rank_effects
-from bayesbeam.comparison import DEFAULT_MODELS, CompareConfig, compare, posterior_summary
+from bayesbeam.comparison import (
+    DEFAULT_MODELS,
+    CompareConfig,
+    compare,
+    expand_model_sets,
+    left_out_words,
+    material_left_out,
+    posterior_summary,
+)
 from bayesbeam.comparison import summarise as summarise_comparison
-from bayesbeam.inference.priors import SENSOR_MASS_SIGMA, default_priors, stated_sensor_masses
+from bayesbeam.inference.priors import (
+    SENSOR_MASS_SIGMA,
+    default_priors,
+    stated_gain_tolerances,
+    stated_sensor_masses,
+)
 from bayesbeam.model import BeamModel, join_model, resolve_model
 from bayesbeam.saved_comparison import SavedComparison
 
@@ -73,6 +88,10 @@ DECISIVE_SD = 3.0
 STAND_IN_SDS = 3.0
 #: standard gravity, m/s^2
 GRAVITY = 9.80665
+#: a fitted AC-coupling corner above this (Hz) is no sensor's or DAQ's (:func:`stand_in`)
+HIGH_PASS_LIMIT = 10.0
+#: stated calibration tolerances a fitted channel gain may lie from 0 (:func:`stand_in`)
+GAIN_STAND_IN_TOLERANCES = 5.0
 
 
 @dataclass
@@ -81,13 +100,16 @@ class DiagnoseConfig:
 
     compare: fit and evidence settings of every model fitted (baseline and augmented);
     candidates: augmented models fitted per round; rounds: effects added at most;
-    replicates: replicates of the mismatch map (see :func:`bayesbeam.checks.discrepancy.locate`).
+    replicates: replicates of the mismatch map (see :func:`bayesbeam.checks.discrepancy.locate`);
+    models: the damping models the baseline is chosen from and the damping re-check compares
+    (names or named sets of :data:`bayesbeam.comparison.MODEL_SETS`).
     """
 
     compare: CompareConfig = field(default_factory=CompareConfig)
     candidates: int = 2
     rounds: int = 2
     replicates: int = 40
+    models: tuple = DEFAULT_MODELS
 
 
 @dataclass
@@ -117,7 +139,7 @@ class NotFitted:
 
 @dataclass
 class DampingRecheck:
-    """The default damping models compared again, each with the effects the diagnosis added."""
+    """The damping models compared again, each with the effects the diagnosis added."""
 
     effects: tuple                  # the added effects, in order
     summary: dict                   # compare's summary of the damping models + effects
@@ -148,6 +170,7 @@ class Diagnosis:
     seconds: float
     recheck: DampingRecheck | None = None   # the damping models again, with the added effects
     not_fitted: list = field(default_factory=list)   # NotFitted: models left out, with the reason
+    left_out: dict = field(default_factory=dict)     # damping model -> why none of its fits was tried
 
     @property
     def added(self) -> list[str]:
@@ -188,10 +211,10 @@ class Diagnosis:
 # ---------------------------------------------------------------------------- the diagnosis
 def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None, executor=None,
              log=None, effects: tuple = (), from_comparison=None) -> Diagnosis:
-    """Diagnose ``rec`` against ``model`` (None: the best of the default models by evidence).
+    """Diagnose ``rec`` against ``model`` (None: the best of ``config.models`` by evidence).
 
-    ``effects``: effects known to be present, joined to ``model`` or to each default model that
-    can carry them (:func:`combinable`); the catalogue search adds to them.
+    ``effects``: effects known to be present, joined to ``model`` or to each model of
+    ``config.models`` that can carry them (:func:`combinable`); the catalogue search adds to them.
     ``from_comparison``: the folder of a comparison of ``rec`` with the same fit settings
     (``bayesbeam compare --out``), whose fits of the baseline models are reused
     (:func:`baseline_fits`).
@@ -201,8 +224,10 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     started = time.perf_counter()
     rng = np.random.default_rng(config.compare.seed)
     effects = tuple(effects)
+    damping, left_out = material_left_out(rec, expand_model_sets(config.models))
+    config = replace(config, models=tuple(damping))
     models = ([join_model(model, effects)] if model
-              else [s for s in (join_model(m, effects) for m in DEFAULT_MODELS) if combinable(s)])
+              else [s for s in (join_model(m, effects) for m in damping) if combinable(s)])
     results, summary = baseline_fits(rec, models, model is not None, config, executor, log, from_comparison)
     current = results[summary["best"]]
     mismatch = _locate(current, rng, config)
@@ -239,7 +264,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     recheck = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
-        first = {m: results[join_model(m, effects)] for m in DEFAULT_MODELS if join_model(m, effects) in results}
+        first = {m: results[join_model(m, effects)] for m in damping if join_model(m, effects) in results}
         recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first)
         not_fitted += recheck.not_fitted
         if recheck.switched:
@@ -248,7 +273,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
                 t.dropped = t.effect in recheck.dropped
             mismatch = _locate(current, rng, config)
     return Diagnosis(baseline, baseline_map, rankings, trials, current, mismatch, None if model else summary,
-                     time.perf_counter() - started, recheck, not_fitted)
+                     time.perf_counter() - started, recheck, not_fitted, {} if model else left_out)
 
 
 def baseline_fits(rec, models: list, named: bool, config: DiagnoseConfig, executor, log,
@@ -272,7 +297,7 @@ def baseline_fits(rec, models: list, named: bool, config: DiagnoseConfig, execut
 
 def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log,
                     first: dict | None = None) -> DampingRecheck:
-    """Compare the default damping models + ``effects`` (those that can carry them) with ``current``.
+    """Compare the damping models ``config.models`` + ``effects`` (those that can carry them) with ``current``.
 
     ``current`` (a damping model + the effects, already fitted) is not refitted. The switch needs
     ln B > :data:`DECISIVE` by :data:`DECISIVE_SD` standard errors, the rule that added the effects.
@@ -283,7 +308,7 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     """
     say = log or (lambda _text: None)
     known = _optimum_values(current)
-    specs = {join_model(m, effects): m for m in DEFAULT_MODELS}
+    specs = {join_model(m, effects): m for m in config.models}
     others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)}, 0)
     say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}")
     started = time.perf_counter()
@@ -317,7 +342,7 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
     ``recheck.final`` and the reduced fits in ``recheck.results``.
     """
     say = log or (lambda _text: None)
-    damping = next(m for m in DEFAULT_MODELS if join_model(m, recheck.effects) == recheck.best)
+    damping = next(m for m in config.models if join_model(m, recheck.effects) == recheck.best)
     final, kept = recheck.results[recheck.best], list(added)
     while kept:
         reduced = {spec: left for left in kept
@@ -590,6 +615,7 @@ def summarise(d: Diagnosis) -> dict:
                           "alpha": ALPHA, "unexplained_needs_misfit_share": PRACTICAL_SHARE},
         "baseline_comparison": None if d.comparison is None else _evidence_table(d.comparison),
         "not_fitted": [{"round": n.round, "model": n.model, "reason": n.reason} for n in d.not_fitted],
+        "left_out": d.left_out,
         "damping_recheck": None if d.recheck is None else {
             "effects": list(d.recheck.effects), "best": d.recheck.best, "previous": d.recheck.previous,
             "switched": d.recheck.switched, "models": _evidence_table(d.recheck.summary),
@@ -661,7 +687,19 @@ def allowed_by_setup(effect: str, rec) -> dict[str, tuple[float, float]]:
         weight = GRAVITY * (rec.beam.rho_a * (rec.beam.length + setup.length_tolerance) + rec.tip.mass
                             + setup.tip_mass_tolerance + setup.stated_mass)
         return {"P": (-weight, weight)}
+    if effect == "high_pass":
+        return {"f_hp": (0.0, HIGH_PASS_LIMIT)}
+    if effect == "channel_gain":
+        return {name: (-GAIN_STAND_IN_TOLERANCES * tol, GAIN_STAND_IN_TOLERANCES * tol)
+                for name, tol in stated_gain_tolerances(setup).items()}
     return {}
+
+
+#: why a fitted measurement-chain effect is a stand-in (see :func:`stand_in`)
+STAND_IN_WHY = {
+    "high_pass": f"above {HIGH_PASS_LIMIT:g} Hz, far above any IEPE sensor's or DAQ's AC-coupling corner",
+    "channel_gain": f"more than {GAIN_STAND_IN_TOLERANCES:g} times the sensor's stated calibration tolerance",
+}
 
 
 def stand_in(effect: str, parameters: dict, rec) -> dict | None:
@@ -684,6 +722,13 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
       of the body forces beyond it: at most that weight, reached when the beam hangs (tension)
       or stands (compression) vertically. A larger P is no tension or compression this set-up
       can hold; it stands in for whatever shifts the modes in a geometric stiffness's proportions.
+    * ``high_pass``: median f_hp above :data:`HIGH_PASS_LIMIT` = 10 Hz. IEPE sensors' corners lie
+      below about 0.5 Hz and DAQs' AC couplings below about 3.4 Hz; a corner above 10 Hz stands in
+      for a loss and phase lead of the lowest mode that some other cause gives.
+    * ``channel_gain``, per sensor: abs(median g) above :data:`GAIN_STAND_IN_TOLERANCES` = 5 times the
+      sensor's ``gain_tolerance`` (0.02 where not stated). A calibration five of its own
+      uncertainties off is not a calibration error; the gain stands in for an amplitude mismatch of
+      the channel (a sensor off its stated place, a wrong mode shape there).
     """
     for name, (low, high) in allowed_by_setup(effect, rec).items():
         if name not in parameters:
@@ -692,8 +737,8 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
         if not low <= median <= high:
             why = (f"more than {STAND_IN_SDS:g} prior sds of log m_s from the stated sensor mass "
                    f"{stated_sensor_masses(rec.setup)[name]:.4g} kg" if effect == "sensor_mass" else
-                   "beyond the weight of beam, tip body and stated sensors, the largest axial force a "
-                   "cantilever with a free tip carries")
+                   STAND_IN_WHY.get(effect, "beyond the weight of beam, tip body and stated sensors, the largest "
+                                    "axial force a cantilever with a free tip carries"))
             return {"parameter": name, "median": median, "allowed": [low, high], "unit": parameters[name]["unit"],
                     "why": why}
     return None
@@ -722,6 +767,8 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     base, bmap, fmap = d.baseline.name, d.baseline_mismatch, d.final_mismatch
     text = [(f"Baseline {base}: RMS standardized residual {bmap.rms_standardized_residual:.2f} "
              f"(1 when the model explains everything but noise), {flags(bmap)} flag(s) in the mismatch map.")]
+    if d.left_out:
+        text.append(left_out_words(d.left_out))
     lines = [r for r in fmap.regions if r.get("beam_physics") is False]
     if lines:
         text.append("Not beam physics (not fitted): " + "; ".join(
@@ -792,7 +839,7 @@ def _refusal(trial: Trial, trials: list) -> str:
 def _recheck_sentence(r: DampingRecheck) -> str:
     models = r.summary["models"]
     best, previous = models[r.best], models[r.previous]
-    head = f"With {' and '.join(r.effects)} modelled, the default damping models were compared again: "
+    head = f"With {' and '.join(r.effects)} modelled, the damping models were compared again: "
     if r.switched:
         final = r.results[r.final or r.best]
         names = {p for e in final.problem.model.effects for p in e.parameters}

@@ -563,7 +563,8 @@ class BeamModel:
         """:meth:`linear_response` from :meth:`_placed_transfer`'s transfer function and offset."""
         y = self.grid.samples(h * self._delayed(self.drive, values))
         if static is not None:
-            y += static[None, :]
+            # the rest before release is DC: the chain passes it with its response at s = 0
+            y += self._dc_gain(values) * static[None, :]
         return y
 
     def simulate_with_impulses(self, params, index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -605,9 +606,42 @@ class BeamModel:
         return y, h * self._delayed(self._unit_drive, values)
 
     def _delayed(self, drive: np.ndarray, values: dict[str, float]) -> np.ndarray:
-        """``drive`` with the response channels' delay e^{-s tau} applied."""
-        tau = self._delay(values)
-        return drive if tau == 0 else drive * self.grid.delay(tau)[:, None]
+        """``drive`` with the response channels' delay e^{-s tau} and the measurement chain's
+        response (:meth:`channel_response`) applied."""
+        tau, chain = self._delay(values), self.channel_response(values, self.grid.s)
+        out = drive if tau == 0 else drive * self.grid.delay(tau)[:, None]
+        return out if chain is None else out * chain
+
+    def channel_response(self, values: dict[str, float], s: np.ndarray) -> np.ndarray | None:
+        """The response channels' measurement chain at complex frequencies ``s`` (1/s), every effect's
+        :meth:`~bayesbeam.physics.effects.Effect.channel_response` multiplied, (len(s), n_sensors);
+        None where no effect filters the channels. ``values`` checked by :meth:`values`."""
+        chain = None
+        for effect in self.effects:
+            part = effect.channel_response(values, s)
+            if part is not None:
+                chain = np.broadcast_to(part, (len(s), len(self.orders))) if chain is None else chain * part
+        return chain
+
+    def _dc_gain(self, values: dict[str, float]) -> np.ndarray | float:
+        """The measurement chain at s = 0, per sensor (1 without one)."""
+        chain = self.channel_response(values, np.zeros(1))
+        return 1.0 if chain is None else chain[0].real
+
+    def _chain_transient(self, values: dict[str, float], poles: np.ndarray) -> list[tuple[complex, np.ndarray]]:
+        """[(q_k, weight (n_sensors, n_modes))] for each own pole q_k of the measurement chain: a mode
+        e^{p t} seen from rest through the chain H adds the residue of H(s)/(s - p) at q_k times
+        e^{q_k t}, i.e. r_k / (q_k - p) times the other effects' response at q_k
+        (:meth:`~bayesbeam.physics.effects.Effect.channel_poles`)."""
+        terms = []
+        for effect in self.effects:
+            for q, r in zip(*effect.channel_poles(values)):
+                rest = np.ones((1, len(self.orders)), dtype=complex)
+                for other in self.effects:
+                    part = other.channel_response(values, np.array([q])) if other is not effect else None
+                    rest = rest if part is None else rest * part
+                terms.append((q, rest[0][:, None] * (r / (q - poles))[None, :]))
+        return terms
 
     @cached_property
     def _unit_drive(self) -> np.ndarray:
@@ -637,7 +671,9 @@ class BeamModel:
         the columns are the responses to Re A_j = 1 and Im A_j = 1 for every mode below the
         DAQ stopband (0.5 fs). c_sj is the mode shape (null vector of Z(p_j)) at sensor s.
         Exact for models without memory; with time hysteresis it keeps the pole part and omits
-        the small non-oscillatory creep of the memory's branch cut.
+        the small non-oscillatory creep of the memory's branch cut. A measurement chain
+        (:meth:`channel_response`, e.g. the ``high_pass`` effect) multiplies mode j by H(p_j) and
+        adds its own poles' terms, the chain taken at rest at ``start`` (:meth:`_chain_transient`).
         """
         values = self.values(params)
         system = self._system(values)
@@ -646,9 +682,15 @@ class BeamModel:
         tau, mask = self.recording.time[samples] - self.recording.excitation.start, self.fit_mask[samples]
         waves = np.exp(np.outer(np.where(mask, tau, 0.0), poles))
         waves[~mask] = 0.0
-        gain = (self.placement(values)[0] @ shapes) * poles[None, :] ** self.orders[:, None]
-        gain = gain * np.exp(-poles * self._delay(values))[None, :]
-        resp = waves[:, None, :] * gain[None, :, :]
+        shown = (self.placement(values)[0] @ shapes) * poles[None, :] ** self.orders[:, None]
+        delay = self._delay(values)
+        gain = shown * np.exp(-poles * delay)[None, :]
+        chain = self.channel_response(values, poles)
+        resp = waves[:, None, :] * (gain if chain is None else gain * chain.T)[None, :, :]
+        # the chain's own poles, charged by each mode's step where the (delayed) decay starts
+        for q, weight in self._chain_transient(values, poles):
+            charge = np.where(mask, np.exp(q * (np.where(mask, tau, 0.0) - delay)), 0.0)
+            resp = resp + charge[:, None, None] * (shown * weight)[None, :, :]
         return np.concatenate([resp.real, -resp.imag], axis=2)
 
     def fit_initial(self, params, signals: np.ndarray | None = None,
@@ -717,7 +759,7 @@ class BeamModel:
         h = np.stack([h_set for h_set, _ in placed], axis=1)                          # (n_freq, P, c)
         y = self.grid.samples(h * self._delayed_batch(self.drive, values))
         if self.recording.excitation.kind == "release":
-            y += np.stack([static for _, static in placed])[None]
+            y += np.stack([self._dc_gain(v) * static for v, (_, static) in zip(values, placed)])[None]
         return y, h, values
 
     def _unit_batch(self, params: Sequence) -> tuple[np.ndarray, np.ndarray]:
@@ -727,7 +769,7 @@ class BeamModel:
 
     def _delayed_batch(self, drive: np.ndarray, values: Sequence[dict]) -> np.ndarray:
         """:meth:`_delayed` for each set (n_freq, P, c); ``drive`` broadcast when no set is delayed."""
-        if all(self._delay(v) == 0 for v in values):
+        if all(self._delay(v) == 0 and self.channel_response(v, self.grid.s[:1]) is None for v in values):
             return drive[:, None, :]
         return np.stack([self._delayed(drive, v) for v in values], axis=1)
 

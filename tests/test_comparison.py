@@ -122,3 +122,25 @@ def test_named_model_sets_expand_and_every_literature_model_simulates():
         priors = default_priors(rec.beam, model.parameter_names, {})
         values = {n: float(p.to_value(p.median())) for n, p in priors.items()}
         assert np.all(np.isfinite(model.simulate(values))), spec
+
+
+def test_models_that_need_a_missing_material_table_are_left_out_with_the_fix():
+    """A recording without [material]: thermoelastic (and only it) leaves ``all`` and
+    ``literature``, with the reason and the keys to add; alone it stays, so the model refuses the
+    recording; a [material] table present (even one that would be refused) leaves out nothing.
+    plumbing: the recording only supplies its beam.toml tables; nothing is fitted."""
+    from dataclasses import replace
+
+    from bayesbeam.comparison import MODEL_SETS, material_left_out
+    from tests.physics.effects.helpers import recording
+
+    rec = recording("force", duration=0.3)
+    assert "material" not in rec.extra
+    kept, left = material_left_out(rec, expand_model_sets(["all"]))
+    assert kept == [m for m in MODEL_SETS["all"] if m != "thermoelastic"] and list(left) == ["thermoelastic"]
+    assert "beam.toml has no [material] table" in left["thermoelastic"]
+    assert "Fix: add a [material] table with" in left["thermoelastic"] and "thickness" in left["thermoelastic"]
+    assert material_left_out(rec, ["thermoelastic"]) == (["thermoelastic"], {})
+    assert material_left_out(rec, list(LITERATURE_MODELS))[0] == [m for m in LITERATURE_MODELS if m != "thermoelastic"]
+    with_table = replace(rec, extra={"material": {"temperature": 293.0}})
+    assert material_left_out(with_table, ["q1", "thermoelastic"]) == (["q1", "thermoelastic"], {})

@@ -393,3 +393,22 @@ def test_a_diagnosis_from_a_comparison_starts_from_its_baseline(monkeypatch, tmp
     baseline = read.to_dict()["baseline_comparison"]
     assert {m: baseline[m]["log_evidence"] for m in baseline} == {m: results[m].evidence.log_z for m in results}
     assert read.added == ["root_compliance"] and read.final.name.endswith("root_compliance")
+
+
+def test_the_recheck_compares_the_damping_models_the_diagnosis_was_given(monkeypatch):
+    """--models q1,q3,fractional: the re-check compares those (with the effect), not the default set."""
+    import bayesbeam.diagnosis as dg
+
+    asked = []
+
+    def fake_compare(rec, models, *args, **options):
+        asked.extend(models)
+        return {m: _result(m, -100.0) for m in models}, None
+
+    monkeypatch.setattr(dg, "compare", fake_compare)
+    monkeypatch.setattr(dg, "summarise_comparison", lambda rec, results, s: {
+        "best": max(results, key=lambda m: results[m].evidence.log_z), "models": {}})
+    monkeypatch.setattr(dg, "too_slow", lambda *args: None)
+    config = dg.DiagnoseConfig(models=("q1", "q3", "fractional"))
+    dg.recheck_damping(None, _result("q3+root_compliance", -90.0), ("root_compliance",), config, None, None)
+    assert asked == ["q1+root_compliance", "fractional+root_compliance"]

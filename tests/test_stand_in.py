@@ -68,6 +68,30 @@ def test_an_axial_load_beyond_the_weight_of_the_set_up_is_a_stand_in(load, expec
         assert verdict["allowed"] == pytest.approx([-WEIGHT, WEIGHT], rel=1e-12)
 
 
+@pytest.mark.parametrize(("corner", "expected"), [(9.9, False), (10.1, True)])
+def test_a_coupling_corner_above_ten_hertz_is_a_stand_in(corner, expected):
+    """No IEPE sensor or DAQ coupling has a corner above 10 Hz: 1 % on either side of it."""
+    verdict = stand_in("high_pass", summary("f_hp", corner, "Hz"), recording())
+    assert (verdict is not None) == expected
+    if expected:
+        assert verdict["allowed"] == [0.0, 10.0] and "AC-coupling corner" in verdict["why"]
+
+
+@pytest.mark.parametrize(("gain", "tolerance", "expected"), [(0.099, None, False), (-0.101, None, True),
+                                                             (0.24, 0.05, False), (0.26, 0.05, True)])
+def test_a_gain_beyond_five_calibration_tolerances_is_a_stand_in(gain, tolerance, expected):
+    """g_mid against 5 x the mid sensor's gain_tolerance, 0.02 where not stated: 0.1, or 0.25 with
+    0.05 stated (the bound at 1-4 % on either side; the tip sensor's gain stays at 0)."""
+    stated = [dict(SETUP["sensor"][0]), {"mass": 0.004, **({"gain_tolerance": tolerance} if tolerance else {})}]
+    rec = recording({**SETUP, "sensor": stated})
+    parameters = {**summary("g_accel_tip", 0.0, "-"), **summary("g_mid", gain, "-")}
+    verdict = stand_in("channel_gain", parameters, rec)
+    assert (verdict is not None) == expected
+    if expected:
+        assert verdict["parameter"] == "g_mid" and verdict["allowed"] == pytest.approx([-5 * (tolerance or 0.02),
+                                                                                       5 * (tolerance or 0.02)])
+
+
 def test_an_effect_the_set_up_does_not_bound_is_never_a_stand_in():
     assert stand_in("root_compliance", summary("k_theta", 1e9, "N m/rad"), recording()) is None
 

@@ -39,11 +39,13 @@ Per sensor. The ``sensor_mass`` effect holds a mass per sensor (m_s_<s> when the
 each is a candidate of its own, "sensor_mass at <s>", its signature that sensor's mass moved from
 its stated value (0 where none is stated) with every other sensor's mass as stated. So the screen
 says at which sensor a mass is missing, whatever order the ``[[sensor]]`` tables list them in.
+``channel_gain`` is screened the same way, a gain g_<s> per sensor with the others at 0.
 
 One-parameter least squares, physically admissible sign and range (the default prior's support,
 both signs only for the axial load):
 
-* linear effects (root_compliance, sensor_mass, axial_load, measurement_delay): the exact model
+* linear effects (root_compliance, sensor_mass, axial_load, measurement_delay, high_pass,
+  channel_gain): the exact model
   (poles for frequency and damping, simulated amplitudes and phases; the decay stays exponential)
   on :data:`GRID_POINTS` values log-spaced over the support, each profiled, then Brent's method in
   log value between the best value's neighbours; the signature is evaluated at finite size, never
@@ -107,6 +109,8 @@ FAILED = 1e3
 #: step of the baseline's Jacobian in sampling coordinates
 JACOBIAN_STEP = 1e-3
 
+#: effects with a parameter per sensor, each screened as a candidate of its own
+PER_SENSOR_EFFECTS = ("sensor_mass", "channel_gain")
 #: the physics of each effect, one sentence a person can check against the signature
 PHYSICS = {
     "root_compliance": "a rotational spring at the clamp lowers every mode by nearly the same fraction to first "
@@ -124,6 +128,11 @@ PHYSICS = {
                     "mode m (mass-normalised shape) and, to first order, no frequency shift: at a stiff clamp it "
                     "grows with the mode like Kelvin-Voigt damping, at a soft one (k_theta l/EI <~ 1) mode 1 is "
                     "damped most",
+    "high_pass": "the sensor's and DAQ's AC coupling s/(s + 2 pi f_hp) shows each mode with the gain "
+                 "f/sqrt(f^2 + f_hp^2) and a phase lead arctan(f_hp/f): an amplitude loss and a lead concentrated "
+                 "at the lowest mode, growing as f_hp/f, with no change of frequency or damping",
+    "channel_gain": "a calibration error (1 + g) of one channel: a uniform amplitude ratio of that channel against "
+                    "the others at every mode, with no change of frequency, damping or phase",
     "quadratic_drag": "air drag c_q |u_t| u_t dissipates more at large amplitude: the damping falls as the vibration "
                       "decays (decay rate larger at the start than at the end)",
     "dry_friction": "Coulomb friction at the tip takes a fixed amplitude per cycle (a straight-line envelope): "
@@ -341,16 +350,16 @@ def _effect(aug: BeamModel, name: str):
 
 
 def _screened(aug: BeamModel, name: str) -> tuple[str, ...]:
-    """The parameters of effect ``name`` screened one at a time: every sensor's mass of
-    ``sensor_mass``, the first (only) parameter of any other effect."""
+    """The parameters of effect ``name`` screened one at a time: every sensor's of an effect of
+    :data:`PER_SENSOR_EFFECTS`, the first (only) parameter of any other effect."""
     parameters = _effect(aug, name).parameters
-    return parameters if name == "sensor_mass" else parameters[:1]
+    return parameters if name in PER_SENSOR_EFFECTS else parameters[:1]
 
 
 def _sensor_of(aug: BeamModel, name: str, parameter: str) -> str | None:
-    """The sensor whose mass ``parameter`` is (``sensor_mass`` on a recording of several sensors),
-    else None."""
-    if name != "sensor_mass" or len(aug.recording.sensors) == 1:
+    """The sensor whose mass or gain ``parameter`` is (an effect of :data:`PER_SENSOR_EFFECTS` on a
+    recording of several sensors), else None."""
+    if name not in PER_SENSOR_EFFECTS or len(aug.recording.sensors) == 1:
         return None
     return aug.recording.sensors[_effect(aug, name).parameters.index(parameter)].name
 

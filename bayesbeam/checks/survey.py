@@ -45,8 +45,8 @@ MAX_PEAKS = 12
 #: a peak within this relative distance of a higher one is its side lobe or beat, not a mode of
 #: its own (the clamped-free modes lie at least a factor 2.8 apart)
 SEPARATION = 0.05
-#: a spectral peak within this relative distance of a nominal mode is taken for that mode: nominal
-#: E, an unknown clamp compliance and sensor mass routinely move frequencies by 10-20 %
+#: a spectral peak within this relative distance of a nominal mode can be that mode (:func:`_modes`):
+#: nominal E, an unknown clamp compliance and sensor mass routinely move frequencies by 10-20 %
 MODE_MATCH = 0.25
 #: this many samples at a channel's maximum (or minimum) value are clipping; a signal with high
 #: modes rises to the limit and leaves it within a sample or two, so they need not be consecutive
@@ -254,17 +254,37 @@ def clipping(x: np.ndarray, fs: float) -> dict | None:
 
 # ---------------------------------------------------------------------------- modes and suggestion
 def _modes(nominal: np.ndarray, channels: list[dict]) -> list[dict]:
-    """Each nominal mode with the nearest peak of any channel within MODE_MATCH (or None); mains
-    lines are not modes."""
+    """Each nominal mode with its peak among every channel's (or None); mains lines are not modes.
+
+    A peak is a mode's by ratio, never two modes': each peak is numbered by the nominal mode
+    nearest it in ratio (within MODE_MATCH), and a mode two peaks claim keeps the nearer. The
+    nominal frequencies are first scaled by the median ratio peak / nominal of a first such
+    numbering, so that a stated modulus off by some % (which moves every frequency by the same
+    ratio) does not push a high mode's peak toward the next nominal mode (modes 9 and 10 lie only
+    1.24 apart); the median ignores mode 1, which a compliant clamp moves most. A nearest-peak
+    match per nominal mode instead gave the last peak seen to the nominal mode above it as well.
+    ``ratio`` stays peak / nominal: it judges the stated modulus."""
     mains = {line["peak_hz"] for c in channels for line in c["mains_lines"]}
     peaks = np.array(sorted({f for c in channels for f in c["peaks_hz"]} - mains))
-    rows = []
-    for i, f in enumerate(nominal, 1):
-        near = peaks[np.argmin(np.abs(peaks - f))] if peaks.size else None
-        found = near is not None and abs(near - f) <= MODE_MATCH * f
-        rows.append({"mode": i, "nominal_hz": float(f), "peak_hz": float(near) if found else None,
-                     "ratio": float(near / f) if found else None})
-    return rows
+    first = _numbered(peaks, nominal)
+    scale = float(np.median([f / nominal[k] for k, f in first.items()])) if first else 1.0
+    found = _numbered(peaks, scale * nominal)
+    return [{"mode": k + 1, "nominal_hz": float(f), "peak_hz": found.get(k),
+             "ratio": float(found[k] / f) if k in found else None} for k, f in enumerate(nominal)]
+
+
+def _numbered(peaks: np.ndarray, expected: np.ndarray) -> dict[int, float]:
+    """Mode index -> peak (Hz): each peak at the mode of nearest ``expected`` frequency in ratio,
+    within MODE_MATCH; of two peaks at one mode, the nearer."""
+    found: dict[int, float] = {}
+    if not expected.size:
+        return found
+    for f in peaks:
+        k = int(np.argmin(np.abs(np.log(f / expected))))
+        off = abs(np.log(f / expected[k]))
+        if abs(f / expected[k] - 1) <= MODE_MATCH and (k not in found or off < abs(np.log(found[k] / expected[k]))):
+            found[k] = float(f)
+    return found
 
 
 def _suggestion(rec, summary: dict, i0: int) -> dict:
@@ -326,7 +346,7 @@ def report_lines(summary: dict) -> list[str]:
         lines.append(f"  {c['name']}: rms {c['rms']:.3g} {c['unit']}, noise floor {c['noise_sd']:.3g} {c['unit']} "
                      f"(white-noise sd of the median spectral density), peaks at "
                      + (", ".join(f"{f:.4g}" for f in c["peaks_hz"]) + " Hz" if c["peaks_hz"] else "none"))
-    lines.append("  modes (nominal clamped-free with the tip body -> nearest spectral peak):")
+    lines.append("  modes (nominal clamped-free with the tip body -> its spectral peak):")
     lines += [f"    {m['mode']:>2}  {m['nominal_hz']:9.4g} Hz  -> "
               + (f"{m['peak_hz']:.4g} Hz (x{m['ratio']:.3f})" if m["peak_hz"] else "not seen")
               for m in summary["modes"]]

@@ -129,6 +129,13 @@ def add_effect_option(p) -> None:
                         "(parameters and priors: bayesbeam models; default: none)")
 
 
+def add_models_option(p, default: str | None) -> None:
+    """``--models``: damping models by name or named set (compare's list; diagnose's comparisons)."""
+    p.add_argument("--models", default=default,
+                   help="comma-separated presets or '+'-joined mechanisms (bayesbeam models lists them), or a "
+                        "named set: paper (the default), literature, all")
+
+
 def add_force_window_option(p) -> None:
     p.add_argument("--no-force-window", action="store_true",
                    help="use the whole force channel of a force recording, not only the impact force window")

@@ -4,6 +4,7 @@ from __future__ import annotations
 from bayesbeam.cli.common import (
     UsageError,
     add_effect_option,
+    add_models_option,
     add_out_options,
     add_run_options,
     model_spec,
@@ -26,9 +27,7 @@ def add_comparison_options(p) -> None:
     """Options shared with ``bayesbeam batch``."""
     from bayesbeam.comparison import DEFAULT_MODELS
 
-    p.add_argument("--models", default=",".join(DEFAULT_MODELS),
-                   help="comma-separated presets or '+'-joined mechanisms (bayesbeam models lists them), or a "
-                        "named set: paper (the default), literature, all")
+    add_models_option(p, ",".join(DEFAULT_MODELS))
     add_effect_option(p)
     add_evidence_options(p)
 

@@ -4,10 +4,11 @@ from __future__ import annotations
 from bayesbeam.cli.common import (
     UsageError,
     add_effect_option,
+    add_models_option,
     add_out_options,
     output_folder,
 )
-from bayesbeam.cli.compare import add_evidence_options, comparison_config
+from bayesbeam.cli.compare import add_evidence_options, comparison_config, model_list
 from bayesbeam.io import load_recording
 from bayesbeam.report.diagnosis import lead, next_steps
 
@@ -17,7 +18,9 @@ HELP = "locate where the best damping model misses a recording, name and add the
 def add_arguments(p) -> None:
     p.add_argument("recording", help="recording directory (beam.toml + recording.csv)")
     p.add_argument("--model", help="baseline damping model, a preset or '+'-joined mechanisms (default: the best "
-                                   "of the default models by evidence, from a comparison run first)")
+                                   "of --models by evidence, from a comparison run first)")
+    # the damping models of the baseline comparison and of the damping re-check (not with --model)
+    add_models_option(p, None)
     add_effect_option(p)
     p.add_argument("--from-comparison", metavar="DIR",
                    help="reuse the fits of a comparison of this recording already run (bayesbeam compare --out DIR, "
@@ -37,7 +40,20 @@ def diagnose_config(args):
         if value < 1:
             raise UsageError(f"{option} = {value}: must be at least 1")
     return DiagnoseConfig(comparison_config(args), candidates=args.candidates, rounds=args.rounds,
-                          replicates=args.map_replicates)
+                          replicates=args.map_replicates, models=damping_models(args))
+
+
+def damping_models(args) -> tuple[str, ...]:
+    """The damping models ``--models`` names (sets expanded, names checked); compare's default
+    without it. Refused beside ``--model``, which names the one baseline."""
+    from bayesbeam.comparison import DEFAULT_MODELS
+
+    if args.models is None:
+        return DEFAULT_MODELS
+    if args.model:
+        raise UsageError(f"--model {args.model} and --models {args.models} together: --model names the one "
+                         "baseline, --models the damping models compared to choose it. Fix: give one of them.")
+    return tuple(model_list(args.models))
 
 
 def run(args) -> int:
@@ -61,5 +77,7 @@ def run(args) -> int:
         print("\nWhat to check next:\n" + "\n".join(f"  {i}. {s}" for i, s in enumerate(steps, 1)))
     print()
     print("In detail: " + summary["summary"])
+    for model, why in summary.get("left_out", {}).items():
+        print(f"left out {model}: {why}")
     print(f"wrote {', '.join(p.name for p in paths[-2:])} and posteriors/ in {out}")
     return 0

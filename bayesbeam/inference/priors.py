@@ -26,6 +26,8 @@ c_e            N m^2 s         log-uniform [1e-10, 1e-1]                   as cd
 mu             1/s             log-uniform [1, 1e5]                        relaxation rate
 zener_scale    -               log-normal, median 1, sd(log) 0.5           Zener's prediction
 c_theta        N m s/rad       log-uniform [1e-6, 10] EI_0/l (x 1 s)       root dashpot
+f_hp           Hz              log-uniform [0.01, 5]                       AC coupling (***)
+g, g_<s>       -               normal, mean 0, sd 0.02                     channel gain (***)
 sigma_<s>      sensor units    log-uniform [1e-6, 10] x channel RMS        noise sd per channel
 phi_<s>        -               uniform [-0.99, 0.99]                       AR(1) coefficient
 l              m               uniform [l - t_l, l + t_l]                  free length (**)
@@ -57,6 +59,18 @@ inside it the value lies, and the uniform is the least informative distribution 
 normal of sd t/2 cut at +-t would claim the stated value is likelier than its neighbours, which the
 tolerance does not say).
 
+(***) The ``high_pass`` effect's corner f_hp: an IEPE sensor's discharge time constant is 0.5 to
+20 s (0.3 to 0.008 Hz) and a DAQ's AC coupling sits at 0.1 to 3.4 Hz (0.5 Hz is common), so
+0.01-5 Hz holds every corner a sensor and DAQ in series give; a DC-coupled chain is f_hp -> 0, which
+the effect's absence is. When ``[[sensor]] high_pass_hz`` states a data-sheet corner, f_hp is
+log-normal about it (the geometric mean of the stated corners when several sensors state one) with
+sd(log) :data:`HIGH_PASS_SIGMA` = 0.5: a data sheet gives a typical or bounding corner, not a
+measured one, and the DAQ's coupling in series moves the effective corner by up to its own.
+The ``channel_gain`` effect's g (g_<s> per sensor of several) is normal about 0 with sd the
+sensor's ``gain_tolerance``, 0.02 where none is stated: a comparison calibration's uncertainty
+(ISO 16063-21, 1-2 % at k = 2). A normal, not a uniform, because a calibration's uncertainty is a
+standard deviation, not a bound.
+
 Why the literature mechanisms' priors: a fractional Kelvin-Voigt beam's loss factor is about
 (c_f/EI) omega^nu sin(nu pi/2), so c_f/EI_0 in [1e-8, 1] spans loss factors of 1e-8 to 1 at 1 rad/s
 whatever nu, and nu is uniform inside the open interval the mechanism admits. The exponential
@@ -85,6 +99,11 @@ Overrides in a fit TOML file, one table per parameter::
     kind = "uniform"       # low, high
     low = -5.0
     high = 50.0
+
+    [prior.g]
+    kind = "normal"        # mean, sd
+    mean = 0.0
+    sd = 0.05
 """
 from __future__ import annotations
 
@@ -93,11 +112,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayesbeam.model import HAMMER_OFFSET, LENGTH, SENSOR_OFFSET
+from bayesbeam.physics.effects.channel_gain import PER_SENSOR as PER_GAIN
+from bayesbeam.physics.effects.channel_gain import SINGLE as GAIN
+from bayesbeam.physics.effects.channel_gain import gain_names
 from bayesbeam.physics.effects.sensor_mass import PER_SENSOR, SINGLE, mass_names
 
-KINDS = ("lognormal", "loguniform", "uniform")
+#: sd of a channel's gain g where beam.toml states no ``gain_tolerance`` (see (***) above)
+DEFAULT_GAIN_TOLERANCE = 0.02
+
+KINDS = ("lognormal", "loguniform", "uniform", "normal")
 #: the names of a kind's two numbers, as a [prior.NAME] table spells them
-BOUND_NAMES = {"lognormal": ("median", "sigma"), "loguniform": ("low", "high"), "uniform": ("low", "high")}
+BOUND_NAMES = {"lognormal": ("median", "sigma"), "loguniform": ("low", "high"), "uniform": ("low", "high"),
+               "normal": ("mean", "sd")}
 
 
 @dataclass(frozen=True)
@@ -105,7 +131,8 @@ class Prior:
     """A one-dimensional prior with its sampling coordinate.
 
     ``kind``: "lognormal" (a = median, b = sd of log), "loguniform" (a = low, b = high) or
-    "uniform" (a = low, b = high). Log-scale kinds are sampled in z = log(value).
+    "uniform" (a = low, b = high) or "normal" (a = mean, b = sd). Log-scale kinds are sampled in
+    z = log(value), the others in the value.
     """
 
     kind: str
@@ -123,10 +150,19 @@ class Prior:
             raise ValueError(f"loguniform prior needs 0 < low < high, got {self.a}, {self.b}")
         if self.kind == "uniform" and not self.a < self.b:
             raise ValueError(f"uniform prior needs low < high, got {self.a}, {self.b}")
+        if self.kind == "normal" and not self.b > 0:
+            raise ValueError(f"normal prior needs sd > 0, got {self.b}")
 
     @property
     def log_scale(self) -> bool:
-        return self.kind != "uniform"
+        return self.kind not in ("uniform", "normal")
+
+    @property
+    def _centred(self) -> tuple[float, float] | None:
+        """(centre, sd) of the sampling coordinate for the Gaussian kinds, else None."""
+        if self.kind == "lognormal":
+            return float(np.log(self.a)), self.b
+        return (self.a, self.b) if self.kind == "normal" else None
 
     def to_value(self, z):
         """Physical value from the sampling coordinate."""
@@ -137,26 +173,28 @@ class Prior:
 
     def log_density(self, z: float) -> float:
         """Log prior density of the sampling coordinate z (the Jacobian is included)."""
-        if self.kind == "lognormal":
-            return -0.5 * ((z - np.log(self.a)) / self.b) ** 2 - np.log(self.b * np.sqrt(2 * np.pi))
+        if self._centred:
+            centre, sd = self._centred
+            return -0.5 * ((z - centre) / sd) ** 2 - np.log(sd * np.sqrt(2 * np.pi))
         lo, hi = (np.log(self.a), np.log(self.b)) if self.kind == "loguniform" else (self.a, self.b)
         return -np.log(hi - lo) if lo <= z <= hi else -np.inf
 
     def bounds(self) -> tuple[float, float]:
-        """Support in the sampling coordinate (+-4 sd for the log-normal)."""
-        if self.kind == "lognormal":
-            return np.log(self.a) - 4 * self.b, np.log(self.a) + 4 * self.b
+        """Support in the sampling coordinate (+-4 sd for the log-normal and the normal)."""
+        if self._centred:
+            centre, sd = self._centred
+            return centre - 4 * sd, centre + 4 * sd
         return (np.log(self.a), np.log(self.b)) if self.kind == "loguniform" else (self.a, self.b)
 
     def draw(self, rng: np.random.Generator, size=None):
         """Random draws of the sampling coordinate."""
-        if self.kind == "lognormal":
-            return rng.normal(np.log(self.a), self.b, size)
+        if self._centred:
+            return rng.normal(*self._centred, size)
         return rng.uniform(*self.bounds(), size)
 
     def median(self) -> float:
         """Prior median of the sampling coordinate."""
-        return float(np.mean(self.bounds())) if self.kind != "lognormal" else float(np.log(self.a))
+        return float(np.mean(self.bounds()))
 
     def describe(self) -> str:
         k1, k2 = BOUND_NAMES[self.kind]
@@ -185,6 +223,8 @@ DEFAULTS: dict[str, tuple[str, tuple[float, str], tuple[float, str]]] = {
     "mu": ("loguniform", (1.0, ""), (1e5, "")),
     "zener_scale": ("lognormal", (1.0, ""), (0.5, "")),
     "c_theta": ("loguniform", (1e-6, "EI_0/l"), (10.0, "EI_0/l")),
+    "f_hp": ("loguniform", (0.01, ""), (5.0, "")),
+    GAIN: ("normal", (0.0, ""), (DEFAULT_GAIN_TOLERANCE, "")),
 }
 #: the noise parameters' defaults, per channel <s>: sigma_<s> scales with the channel's RMS
 NOISE_DEFAULTS: dict[str, tuple[str, tuple[float, str], tuple[float, str]]] = {
@@ -205,6 +245,8 @@ SCALES = {
 
 #: sd of log m_s (m_s_<s>) about the sensor's stated mass (see (*) above)
 SENSOR_MASS_SIGMA = 0.3
+#: sd of log f_hp about the stated data-sheet corner (see (***) above)
+HIGH_PASS_SIGMA = 0.5
 
 
 def default_priors(beam, parameter_names, channel_rms: dict[str, float], setup=None) -> dict[str, Prior]:
@@ -230,8 +272,11 @@ def default_priors(beam, parameter_names, channel_rms: dict[str, float], setup=N
 
 
 def default_key(name: str) -> str:
-    """The row of :data:`DEFAULTS` of parameter ``name``: a sensor's mass m_s_<s> takes m_s's."""
-    return SINGLE if name.startswith(PER_SENSOR.format("")) else name
+    """The row of :data:`DEFAULTS` of parameter ``name``: a sensor's mass m_s_<s> takes m_s's, a
+    sensor's gain g_<s> g's."""
+    if name.startswith(PER_SENSOR.format("")):
+        return SINGLE
+    return GAIN if name.startswith(PER_GAIN.format("")) else name
 
 
 def stated_sensor_masses(setup) -> dict[str, float | None]:
@@ -247,7 +292,20 @@ def setup_prior(name: str, setup) -> Prior | None:
     mass = stated_sensor_masses(setup).get(name)
     if mass:
         return Prior("lognormal", mass, SENSOR_MASS_SIGMA)
-    return None
+    if setup is None:
+        return None
+    corners = [f for f in setup.high_pass_corners if f is not None]
+    if name == "f_hp" and corners:
+        return Prior("lognormal", float(np.exp(np.mean(np.log(corners)))), HIGH_PASS_SIGMA)
+    tolerance = dict(zip(gain_names(s.name for s in setup.sensors), setup.gain_tolerances)).get(name)
+    return Prior("normal", 0.0, tolerance) if tolerance is not None else None
+
+
+def stated_gain_tolerances(setup) -> dict[str, float]:
+    """{``channel_gain`` parameter (g, or g_<s> per sensor): the sensor's calibration tolerance, its
+    stated ``gain_tolerance`` or :data:`DEFAULT_GAIN_TOLERANCE`}."""
+    names = gain_names(s.name for s in setup.sensors)
+    return {n: DEFAULT_GAIN_TOLERANCE if tol is None else tol for n, tol in zip(names, setup.gain_tolerances)}
 
 
 def tolerance_prior(name: str, beam, setup) -> Prior | None:

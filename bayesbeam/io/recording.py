@@ -107,13 +107,17 @@ _MEANING = {
     "location_tolerance": "in m: the sensor, or the hammer in [excitation], sits within location +- this",
     "mass_tolerance": "in kg: the tip mass lies within mass +- this",
     "rotary_inertia_tolerance": "in kg m^2: the tip's rotary inertia lies within rotary_inertia +- this",
+    "high_pass_hz": "the sensor's low-frequency corner in Hz from its data sheet (leave it out for a DC-coupled "
+                    "sensor)",
+    "gain_tolerance": "the sensitivity's calibration uncertainty as a fraction, e.g. 0.02",
 }
 
 # Optional keys inside the format's own tables that state what is known about the set-up
 # (docs/format.md). The format carries keys it does not name along without refusing them, so
 # they are kept verbatim at load (Recording.setup_keys) and checked when read (Recording.setup).
 _SETUP_KEYS = {"beam": ("length_tolerance",), "tip": ("mass_tolerance", "rotary_inertia_tolerance"),
-               "sensor": ("mass", "location_tolerance"), "excitation": ("location_tolerance",)}
+               "sensor": ("mass", "location_tolerance", "high_pass_hz", "gain_tolerance"),
+               "excitation": ("location_tolerance",)}
 
 # The optional [material] table (docs/format.md): what the thermoelastic damping mechanism
 # predicts its damping from. Named materials supply handbook values of the three constants
@@ -186,7 +190,9 @@ class SetUp:
     length_tolerance: the free length lies within l +- this (m). tip_mass_tolerance (kg) and
     tip_rotary_inertia_tolerance (kg m^2): m_T and J lie within +- these. sensor_masses: each
     sensor's own mass (kg) in the order of ``Recording.sensors``, None where not stated.
-    location_tolerances: each sensor sits within its location +- this (m).
+    location_tolerances: each sensor sits within its location +- this (m). high_pass_corners: each
+    sensor's stated low-frequency corner (Hz), gain_tolerances: its stated calibration uncertainty
+    (a fraction); None where not stated.
     excitation_location_tolerance: the hammer of a force recording hit within its location +- this
     (m); hammer_location: its stated location (m; None unless a force recording). A tolerance of 0
     means the value is taken as stated. sensors: the recording's sensors the per-sensor entries
@@ -199,6 +205,8 @@ class SetUp:
     tip_rotary_inertia_tolerance: float = 0.0
     sensor_masses: tuple[float | None, ...] = ()
     location_tolerances: tuple[float, ...] = ()
+    high_pass_corners: tuple[float | None, ...] = ()
+    gain_tolerances: tuple[float | None, ...] = ()
     sensors: tuple[Sensor, ...] = field(default=(), compare=False)
     excitation_location_tolerance: float = 0.0
     hammer_location: float | None = field(default=None, compare=False)
@@ -333,7 +341,7 @@ class Recording:
     def material(self) -> Material:
         """The ``[material]`` table, checked (it is optional in the format and stays in ``extra``);
         RecordingError naming the keys to add when it is missing or incomplete."""
-        return _read_material(self.extra, (self.source or Path(".")) / "beam.toml")
+        return _read_material(self.extra, (self.source or Path(".")) / "beam.toml", self.beam)
 
     @property
     def setup(self) -> SetUp:
@@ -554,7 +562,7 @@ def _read_tip(doc: dict, file: Path) -> TipBody:
     return TipBody(**values)
 
 
-def _read_material(doc: dict, file: Path) -> Material:
+def _read_material(doc: dict, file: Path, beam: Beam | None = None) -> Material:
     if "material" not in doc:
         raise RecordingError(
             file, "[material]", "table missing (the thermoelastic mechanism needs the beam's thermal constants)",
@@ -575,7 +583,26 @@ def _read_material(doc: dict, file: Path) -> Material:
             raise RecordingError(file, f"[material] .{key}", f"{value!r} is not positive",
                                  f"give {key} a positive value ({_MEANING[key]}).")
     _warn_unused(table, ("name", *_MATERIAL_KEYS), "[material]", file)
+    if beam is not None:
+        _warn_thickness(values["thickness"], beam, file)
     return Material(**values)
+
+
+#: relative disagreement of [material] thickness with [beam]'s rectangular depth sqrt(12 I / A)
+#: past which it is warned (the stated I and A of a measured strip agree with h to ~1 %)
+THICKNESS_TOLERANCE = 0.02
+
+
+def _warn_thickness(thickness: float, beam: Beam, file: Path) -> None:
+    # Warned, not refused: a section that is not a rectangle (a tube, an I-beam) has its own
+    # sqrt(12 I / A); for the rectangular strip the thermoelastic mechanism assumes, a mismatch is
+    # a typo in one of three keys, and tau = h^2 / (pi^2 chi) moves as its square.
+    depth = float(np.sqrt(12.0 * beam.second_moment / beam.area))
+    if abs(thickness / depth - 1.0) > THICKNESS_TOLERANCE:
+        warnings.warn(f"{file}: [material] .thickness: {thickness:.4g} m, while [beam]'s second_moment and area "
+                      f"give a rectangular section sqrt(12 I / A) = {depth:.4g} m deep ({thickness / depth - 1:+.1%}); "
+                      "the thermoelastic relaxation time goes as thickness^2. Check thickness, second_moment and "
+                      "area (a section that is not a rectangle may differ)", stacklevel=4)
 
 
 def _stated_setup(doc: dict) -> dict:
@@ -611,6 +638,8 @@ def _read_setup(stated: dict, sensor_list: tuple[Sensor, ...], length: float, fi
                             for table, label in zip(sensors, labels)),
         location_tolerances=tuple(_non_negative(table, "location_tolerance", label, file)
                                   for table, label in zip(sensors, labels)),
+        high_pass_corners=_stated_positive(sensors, "high_pass_hz", labels, file),
+        gain_tolerances=_stated_positive(sensors, "gain_tolerance", labels, file),
         sensors=tuple(sensor_list),
         excitation_location_tolerance=_hammer_tolerance(stated.get("excitation", {}), sensor_list, sensors,
                                                         excitation, file),
@@ -633,6 +662,18 @@ def _hammer_tolerance(table: dict, sensor_list: tuple[Sensor, ...], sensors: lis
                              "tolerance beside [excitation] location_tolerance: both offsets would be dx_hammer",
                              "rename the sensor.")
     return tolerance
+
+
+def _stated_positive(tables: list[dict], key: str, labels: list[str], file: Path) -> tuple[float | None, ...]:
+    """Each table's finite ``key`` > 0, None where it is not stated."""
+    out = []
+    for table, label in zip(tables, labels):
+        value = _non_negative(table, key, label, file) if key in table else None
+        if value == 0.0:
+            raise RecordingError(file, f"{label} .{key}", "0 is not a value it can take",
+                                 f"give {key} a value > 0 ({_MEANING[key]}), or leave the key out.")
+        out.append(value)
+    return tuple(out)
 
 
 def _non_negative(table: dict, key: str, label: str, file: Path) -> float:

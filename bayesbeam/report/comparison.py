@@ -80,7 +80,14 @@ def model_colors(summary) -> dict:
 def _header(summary) -> str:
     rec = summary.get("recording") or "(recording given in memory)"
     return (f"<h1>Which damping mechanism? Model comparison</h1><p class=\"meta\">Recording: {esc(rec)}. "
-            f"{len(summary['ranking'])} models compared in {summary['seconds']:.0f} s.</p>{nav(SECTIONS)}")
+            f"{len(summary['ranking'])} models compared in {summary['seconds']:.0f} s"
+            f"{_left_out(summary)}.</p>{nav(SECTIONS)}")
+
+
+def _left_out(summary) -> str:
+    """The header's note of models left out of the comparison (why: in the verdict)."""
+    left = summary.get("left_out") or {}
+    return f"; left out: {esc(', '.join(left))} (why and the fix: Verdict)" if left else ""
 
 
 def _verdict_section(summary) -> str:

@@ -504,10 +504,13 @@ def _candidates_section(d, summary) -> str:
     out.append(f"<h3>The decisions in words</h3><p>{esc(summary['summary'])}</p>")
     if summary["baseline_comparison"]:
         out.append("<h3>Baseline chosen by evidence</h3>" + _comparison_table(summary["baseline_comparison"]))
+    if summary.get("left_out"):
+        out.append("<h3>Damping models left out</h3><ul>" + "".join(
+            f"<li><b>{esc(m)}</b>: {esc(why)}</li>" for m, why in summary["left_out"].items()) + "</ul>")
     recheck = summary.get("damping_recheck")
     if recheck:
         out.append(f"<h3>Damping re-checked with {esc(' and '.join(recheck['effects']))}</h3>"
-                   "<p>The first comparison could not see the missing physics; the default damping models are "
+                   "<p>The first comparison could not see the missing physics; the damping models of the baseline comparison are "
                    f"compared again, each with the added effects. Final damping: <b>{esc(recheck['best'] if recheck['switched'] else recheck['previous'])}</b>"
                    f"{' (switched: decisive evidence)' if recheck['switched'] else ''}.</p>"
                    + _comparison_table(recheck["models"]))

@@ -178,7 +178,8 @@ def integrate(model, params, initial=None, substeps: int | None = None, *, drag_
         inputs, seq, hold = np.eye(plant.n), force, "cubic"
     else:  # pragma: no cover - guarded by the registry
         raise TypeError(f"no integrator for effect {effect.name}")
-    y = model.linear_response(system, values) + plant.response(inputs, seq, hold, model.delay(values))
+    chain = model.channel_response(values, plant.grid.s)
+    y = model.linear_response(system, values) + plant.response(inputs, seq, hold, model.delay(values), chain)
     return NonlinearSolution(y, plant.h, plant.t_start, force, solver.final_state, solver.record)
 
 
@@ -367,7 +368,8 @@ class _Plant:
         return h * (self.s_in**order * self.f_in)[:, None]
 
     # ------------------------------------------------------------------ output stage
-    def response(self, inputs: np.ndarray, seq: np.ndarray, hold: str, delay: float) -> np.ndarray:
+    def response(self, inputs: np.ndarray, seq: np.ndarray, hold: str, delay: float,
+                 chain: np.ndarray | None = None) -> np.ndarray:
         """Sensor outputs (n, n_sensors) of the force history ``seq`` applied through ``inputs``.
 
         ``inputs`` (n_dof, r) are the load vectors of r forces. hold "cubic": ``seq``
@@ -375,7 +377,8 @@ class _Plant:
         nearest nodes (:func:`hold_cubic`). hold "moments": ``seq``
         (n_nodes - 1, r, 2) holds per step the mean c0 and the first moment
         c1 = 12 int_0^1 (u - 1/2) g du of each force (u = (t - t_k)/h): the force is taken as
-        c0 + c1 (u - 1/2) on each step, exact for forces linear within the steps.
+        c0 + c1 (u - 1/2) on each step, exact for forces linear within the steps. ``chain``
+        (n_freq, n_sensors): the measurement chain on this grid (BeamModel.channel_response), or None.
         """
         grid, model = self.grid, self.model
         nb = grid.freq.size
@@ -391,6 +394,8 @@ class _Plant:
         h = self.system.transfer(grid.s, self.rows, inputs)
         out = np.einsum("for,rf->fo", h, spec)
         out *= np.stack([grid.s**q for q in model.orders], axis=1)
+        if chain is not None:
+            out *= chain
         return grid.samples(out)[: model.recording.n_samples]
 
 

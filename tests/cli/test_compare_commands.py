@@ -64,3 +64,18 @@ def test_batch_on_a_dask_cluster_writes_one_table_and_resumes(recordings, tmp_pa
         assert main([*argv, "--resume"]) == 0                       # again: everything is resumed
         assert (out / "hit_a" / "comparison.json").stat().st_mtime_ns == first
         assert json.loads((out / "batch.json").read_text()) == table
+
+
+def test_compare_all_without_a_material_table_compares_the_rest_and_says_why(recordings, tmp_path, capsys):
+    """`--models q1,thermoelastic` on a recording without [material] fits q1 and says, in the
+    terminal, comparison.json and the report, that thermoelastic was left out and how to add the
+    table (docs/format.md). plumbing: the reference recording only needs to load and fit cheaply."""
+    out = tmp_path / "cmp"
+    argv = ["compare", recordings[0], "--models", "q1,thermoelastic", *CHEAP[2:], "--executor", "serial"]
+    assert main([*argv, "--out", str(out)]) == 0
+    summary = json.loads((out / "comparison.json").read_text())
+    assert summary["ranking"] == ["q1"] and list(summary["left_out"]) == ["thermoelastic"]
+    why = summary["left_out"]["thermoelastic"]
+    assert "no [material] table" in why and "docs/format.md" in why
+    assert f"thermoelastic was left out: {why}" in capsys.readouterr().out
+    assert "left out: thermoelastic" in (out / "report.html").read_text()

@@ -103,3 +103,73 @@ def test_from_comparison_refuses_a_folder_that_holds_none(null, tmp_path, capsys
     assert main(["diagnose", null, *CHEAP, "--from-comparison", str(tmp_path), "--out", str(tmp_path / "x")]) == 2
     assert f"{tmp_path / 'comparison.json'}: file: not found" in capsys.readouterr().err
     assert not (tmp_path / "x").exists()
+
+
+def test_model_and_models_together_are_refused(null, tmp_path, capsys):
+    assert main(["diagnose", null, "--model", "q1", "--models", "q1,q2", "--out", str(tmp_path / "x")]) == 2
+    assert "--model q1 and --models q1,q2 together" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("models, expected", [
+    (None, "paper"), ("literature", "literature"), ("all", "all"), (["q3", "air"], ("q3", "air")),
+    ("q1,paper", ("q1", "q2", "q3", "air", "strain_rate")),
+])
+def test_models_names_the_damping_models_the_diagnosis_compares(null, models, expected):
+    """--models as compare spells it: a list or a named set, expanded once; without it compare's
+    default set. Parsing only: nothing is fitted."""
+    from bayesbeam.api import options
+    from bayesbeam.cli.diagnose import diagnose_config
+    from bayesbeam.comparison import MODEL_SETS
+
+    config = diagnose_config(options("diagnose", null, models=models))
+    assert config.models == (MODEL_SETS[expected] if isinstance(expected, str) else expected)
+
+
+def test_the_baseline_comparison_leaves_out_thermoelastic_without_a_material_table(null, monkeypatch):
+    """`--models q1,thermoelastic` on a recording without [material]: the baseline comparison is
+    asked for q1 alone (compare's rule, tests/test_comparison.py). plumbing: baseline_fits records
+    its models and stops the run."""
+    import bayesbeam
+    import bayesbeam.diagnosis as dg
+
+    asked = []
+
+    def stop(rec, models, *args):
+        asked.append(models)
+        raise InterruptedError
+
+    monkeypatch.setattr(dg, "baseline_fits", stop)
+    with pytest.raises(InterruptedError):
+        bayesbeam.diagnose(null, models="q1,thermoelastic", effect="sensor_mass", executor="serial", progress=False)
+    assert asked == [["q1+sensor_mass"]]
+
+
+def test_from_comparison_refuses_models_the_comparison_does_not_hold(null, tmp_path, capsys):
+    """--from-comparison with --models: every model named must be in the comparison, the error
+    names those missing and the fix; nothing is fitted after the comparison (one q1 fit, ~6 s)."""
+    compared = tmp_path / "compare"
+    fit = CHEAP[2:8]                            # --n-intervals 6 --repeats 2 --replicates 10
+    assert main(["compare", null, "--models", "q1", *fit, "--executor", "serial", "--quiet", "--out", str(compared)]) == 0
+    capsys.readouterr()
+    argv = ["diagnose", null, "--models", "q1,q2,q3", *CHEAP[2:], "--from-comparison", str(compared)]
+    assert main([*argv, "--out", str(tmp_path / "diag")]) == 2
+    err = capsys.readouterr().err
+    assert "has no q2, q3 (it holds q1)" in err and "Fix: " in err
+    assert not (tmp_path / "diag").exists()
+
+
+def test_diagnose_without_a_material_table_says_thermoelastic_was_left_out(null, tmp_path, capsys):
+    """`--models q1,thermoelastic` on a recording without [material] diagnoses against q1 and says
+    in the terminal, diagnosis.json and the report that thermoelastic was left out and how to add
+    the table. plumbing: the cheap BeamModel-made recording, nothing concealed (~15 s)."""
+    out = tmp_path / "diag"
+    argv = ["diagnose", null, "--models", "q1,thermoelastic", *CHEAP[2:], "--out", str(out)]
+    assert main(argv) == 0
+    summary = json.loads((out / "diagnosis.json").read_text())
+    why = summary["left_out"]["thermoelastic"]
+    assert summary["baseline"]["model"] == "q1" and "no [material] table" in why
+    assert list(summary["baseline_comparison"]) == ["q1"]
+    assert f"thermoelastic was left out: {why}" in summary["summary"]
+    assert f"left out thermoelastic: {why}" in capsys.readouterr().out
+    assert "Damping models left out" in (out / "report.html").read_text()

@@ -18,14 +18,15 @@ EXAMPLES = [Prior("lognormal", 44.28, 0.25), Prior("lognormal", 3e-3, 1.5), Prio
 def integral(prior):
     """Integral of exp(log_density) over the sampling coordinate, by adaptive quadrature.
 
-    The log-normal is integrated over +-12 sd (the mass outside is 4e-33).
+    The log-normal and the normal are integrated over +-12 sd (the mass outside is 4e-33).
     """
     lo, hi = prior.bounds()
-    if prior.kind == "lognormal":
-        mid, sd = np.log(prior.a), prior.b
+    gaussian = prior.kind in ("lognormal", "normal")
+    if gaussian:
+        mid, sd = prior.median(), prior.b
         lo, hi = mid - 12 * sd, mid + 12 * sd
     value, _ = integrate.quad(lambda z: np.exp(prior.log_density(z)), lo, hi, epsabs=1e-13, epsrel=1e-12,
-                                limit=200, points=None if prior.kind != "lognormal" else [np.log(prior.a)])
+                                limit=200, points=[prior.median()] if gaussian else None)
     return value
 
 

@@ -74,7 +74,8 @@ def quietly_loaded(directory: Path):
 def test_the_stated_setup_is_read_without_warnings_and_exposed(tmp_path):
     rec = quietly_loaded(make(tmp_path))
     assert rec.setup == SetUp(length_tolerance=0.005, tip_mass_tolerance=0.002, tip_rotary_inertia_tolerance=1e-7,
-                              sensor_masses=(0.006, None), location_tolerances=(0.004, 0.0))
+                              sensor_masses=(0.006, None), location_tolerances=(0.004, 0.0),
+                              high_pass_corners=(None, None), gain_tolerances=(None, None))
     assert rec.setup.stated_mass == 0.006
     # the nominal description is what it was: the set-up keys change no other field
     assert rec.beam.length == 0.759 and rec.sensors[0].location == 0.75 and rec.tip.mass == 0.0
@@ -120,7 +121,8 @@ def test_shipped_recordings_load_as_before(directory):
     rec = quietly_loaded(directory)
     assert rec.setup_keys == {}
     n = len(rec.sensors)
-    assert rec.setup == SetUp(sensor_masses=(None,) * n, location_tolerances=(0.0,) * n)
+    assert rec.setup == SetUp(sensor_masses=(None,) * n, location_tolerances=(0.0,) * n,
+                              high_pass_corners=(None,) * n, gain_tolerances=(None,) * n)
 
 
 def test_the_shipped_list_holds_the_examples_and_the_real_record():
@@ -195,3 +197,26 @@ def test_check_shows_the_hammers_tolerance(tmp_path, capsys):
 
     assert main(["check", str(make_force(tmp_path)), "--out", str(tmp_path / "out")]) == 0
     assert "hammer location +- 0.003 m" in capsys.readouterr().out
+
+
+def test_the_measurement_chain_keys_are_read_kept_and_written_back(tmp_path):
+    """[[sensor]] high_pass_hz (Hz) and gain_tolerance (a fraction): read per sensor, None where not
+    stated, loaded without a warning and written back as stated."""
+    toml = STATED.replace("location_tolerance = 0.004", "location_tolerance = 0.004\nhigh_pass_hz = 0.5\n"
+                          "gain_tolerance = 0.03", 1)
+    rec = quietly_loaded(make(tmp_path, toml))
+    assert rec.setup.high_pass_corners == (0.5, None) and rec.setup.gain_tolerances == (0.03, None)
+    back = quietly_loaded(write_recording(rec, tmp_path / "copy"))
+    assert back.setup == rec.setup and back.setup_keys == rec.setup_keys
+
+
+@pytest.mark.parametrize("key", ["high_pass_hz", "gain_tolerance"])
+@pytest.mark.parametrize("value", ["0.0", "-0.5", '"0.5 Hz"', "inf"])
+def test_a_bad_measurement_chain_value_is_refused_when_read(tmp_path, key, value):
+    """0 is refused too (a DC-coupled sensor leaves high_pass_hz out; a gain known exactly states
+    no tolerance): the message names the sensor's key and the fix."""
+    toml = STATED.replace("location_tolerance = 0.004", f"location_tolerance = 0.004\n{key} = {value}", 1)
+    rec = quietly_loaded(make(tmp_path, toml))
+    with pytest.raises(RecordingError) as info:
+        _ = rec.setup
+    assert info.value.where == f"[[sensor]] #1 .{key}" and "Fix:" in str(info.value) and info.value.fix

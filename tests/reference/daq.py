@@ -5,6 +5,9 @@ the recording rate fs, convolved with one symmetric Kaiser-windowed-sinc low-pas
 0.45 fs, transition 0.40-0.50 fs, ripple and stop band 1e-5, i.e. flat to 1e-5 below 0.40 fs and
 -100 dB above 0.50 fs) centred on each recorded sample, and kept at every ``oversample``-th
 point. Symmetric taps centred on the sample: no delay, no phase.
+
+Before it, the response channels may pass a measurement chain (:func:`measurement_chain`): an AC
+coupling (first-order high-pass) and a calibration gain per channel; the force channel does not.
 """
 from __future__ import annotations
 
@@ -49,3 +52,21 @@ class AntiAlias:
             raise ValueError(f"need {(n - 1) * self.oversample + 2 * self.half + 1} fine samples, got {fine.shape[0]}")
         windows = np.lib.stride_tricks.sliding_window_view(fine, self.taps.size, axis=0)[:: self.oversample]
         return windows @ self.taps
+
+
+def measurement_chain(fine: np.ndarray, h: float, f_hp: float = 0.0, gains=None) -> np.ndarray:
+    """Response channels (time first, a column per sensor) on the fine grid of step ``h`` (s) seen
+    through an AC coupling s/(s + 2 pi f_hp) (f_hp in Hz; 0: DC coupled) and read with gains 1 + g.
+
+    The coupling is integrated exactly for values linear between fine points: the blocked part x
+    obeys x' = w (u - x), w = 2 pi f_hp, and over a step x_{k+1} = a x_k + (1 - a - b) u_k + b u_{k+1}
+    with a = e^{-w h}, b = 1 - (1 - a)/(w h); the channel reads u - x. What came before the first
+    value has long been blocked (a release's static deflection, a beam at rest): x starts there.
+    """
+    out = np.asarray(fine, dtype=float)
+    if f_hp > 0:
+        wh = 2 * np.pi * f_hp * h
+        a, b = np.exp(-wh), 1 + np.expm1(-wh) / wh
+        change = out - out[:1]
+        out = change - signal.lfilter([b, 1 - a - b], [1.0, -a], change, axis=0)
+    return out if gains is None else out * (1.0 + np.asarray(gains, dtype=float))

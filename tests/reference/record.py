@@ -13,7 +13,7 @@ from bayesbeam.io.atomic import write_text
 
 from . import friction, integrate
 from .augmented import relaxation_blocks
-from .daq import AntiAlias
+from .daq import AntiAlias, measurement_chain
 from .relaxation import RELAXATION_KEYS
 from .system import BeamCase, full_blocks, matrices, modal_blocks
 
@@ -95,11 +95,12 @@ def _simulate(case: BeamCase, excitation, fs: float, n: int, numerics: Numerics)
     # shifted by -tau (the force is analytic, the beam at rest or in equilibrium before it): no interpolation
     shifted = fine - case.effects.get("tau", 0.0)
     step = _stepper(case, numerics)
+    chain = partial(measurement_chain, h=h, f_hp=case.effects.get("f_hp", 0.0), gains=case.effects.get("gains"))
     if isinstance(excitation, Hammer):
         f, df = excitation.force(shifted)
         responses = step(blocks, h, np.zeros(blocks.B.shape), f, df)
-        return daq.sample(excitation.force(fine)[0], n), daq.sample(responses, n)
-    return None, daq.sample(_release(blocks, excitation.tip_load, shifted, h, step), n)
+        return daq.sample(excitation.force(fine)[0], n), daq.sample(chain(responses), n)
+    return None, daq.sample(chain(_release(blocks, excitation.tip_load, shifted, h, step)), n)
 
 
 def _stepper(case: BeamCase, numerics: Numerics):
@@ -136,7 +137,7 @@ MECHANISM_KEYS = {"air": ("gamma",), "strain_rate": ("cdI",), "time_hysteresis":
                   "spatial_hysteresis": ("a", "b"), **RELAXATION_KEYS}
 EFFECT_NAMES = {"k_theta": "root_compliance", "c_theta": "root_damping", "m_s": "sensor_mass",
                 "sensor_masses": "sensor_mass", "P": "axial_load",
-                "tau": "measurement_delay", "F_c": "dry_friction"}
+                "tau": "measurement_delay", "F_c": "dry_friction", "f_hp": "high_pass", "gains": "channel_gain"}
 TIP_ACCELEROMETER = "accel_tip"
 NOTES = {"simulator": "tests.reference: Hermite cubic finite elements, exact exponential stepping",
          "daq": "every channel passes one zero-phase Kaiser-windowed-sinc low-pass (flat to 1e-5 below 0.40 fs, "
@@ -154,7 +155,8 @@ def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float,
     damping: the paper's parameters (gamma, cdI, alpha, beta, a, b; SI units) or the literature's
     (c_e, mu; c_f, nu; Delta, tau_T: :mod:`tests.reference.relaxation`);
     effects: k_theta (N m/rad), c_theta (N m s/rad), m_s (kg, at the first sensor), sensor_masses
-    (kg per sensor, in the order of ``sensors``), P (N), tau (s),
+    (kg per sensor, in the order of ``sensors``), P (N), tau (s), f_hp (Hz, AC coupling of the response
+    channels), gains (one per sensor: each response channel reads 1 + g times the motion),
     F_c (N, Coulomb friction at the tip; memory-free damping only);
     material: a ``[material]`` table written to beam.toml as given (docs/format.md);
     excitation: :class:`Hammer` (force channel "force") or :class:`Release` (no force channel);
@@ -187,9 +189,12 @@ def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float,
 
 
 def _truth_entry(key: str, value, sensors) -> dict:
-    """An effect's true parameters by the names bayesbeam fits: sensor_masses as m_s_<sensor>."""
+    """An effect's true parameters by the names bayesbeam fits: sensor_masses as m_s_<sensor>, gains
+    as g_<sensor> (g for a recording's only sensor)."""
     if key == "sensor_masses":
         return {f"m_s_{s.name}": float(m) for s, m in zip(sensors, value)}
+    if key == "gains":
+        return {"g": float(value[0])} if len(sensors) == 1 else {f"g_{s.name}": float(g) for s, g in zip(sensors, value)}
     return {key: value}
 
 

@@ -32,7 +32,7 @@ from .memory import SumOfExponentials
 from .relaxation import RELAXATION_KEYS
 
 DAMPING_KEYS = ("gamma", "cdI", "alpha", "beta", "r", "a", "b", *(k for keys in RELAXATION_KEYS.values() for k in keys))
-EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "sensor_masses", "P", "tau", "F_c")
+EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "sensor_masses", "P", "tau", "F_c", "f_hp", "gains")
 #: parameters that come in pairs
 PAIRS = (("alpha", "beta"), ("a", "b"), *RELAXATION_KEYS.values())
 ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
@@ -48,7 +48,9 @@ class BeamCase:
     tau_T s); ``effects``: k_theta (N m/rad, root spring), c_theta (N m s/rad, a root dashpot beside
     it), m_s (kg, point mass at the first sensor), sensor_masses (kg per sensor, in the order of
     ``sensors``: a point mass at any sensor; beside m_s the first sensor carries both), P (N, axial load, tension positive), tau (s,
-    delay of the response channels), F_c (N, Coulomb friction at the tip: :mod:`tests.reference.friction`). ``sensors``: (location m, quantity).
+    delay of the response channels), F_c (N, Coulomb friction at the tip: :mod:`tests.reference.friction`),
+    f_hp (Hz, the response channels' AC coupling) and gains (per sensor, each channel reads 1 + g times
+    the motion): :func:`tests.reference.daq.measurement_chain`. ``sensors``: (location m, quantity).
     """
 
     length: float
@@ -65,7 +67,7 @@ class BeamCase:
             unknown = set(given) - set(known)
             if unknown:
                 raise ValueError(f"unknown {name} parameter(s) {sorted(unknown)}; known: {', '.join(known)}")
-        scalars = {k: v for k, v in {**self.damping, **self.effects}.items() if k != "sensor_masses"}
+        scalars = {k: v for k, v in {**self.damping, **self.effects}.items() if k not in ("sensor_masses", "gains")}
         negative = {k: v for k, v in scalars.items() if (not np.isfinite(v) and k != "r") or (v < 0 and k != "P")}
         if negative or min(self.length, self.rho_a, self.EI) <= 0 or min(self.m_T, self.J) < 0:
             raise ValueError(f"parameters must be finite and non-negative (P may be negative), l, rho A and EI "
@@ -87,6 +89,9 @@ class BeamCase:
         if len(masses) != len(self.sensors) or not all(np.isfinite(m) and m >= 0 for m in masses):
             raise ValueError(f"sensor_masses {masses!r}: give one finite mass >= 0 (kg) per sensor, "
                              f"{len(self.sensors)} in all")
+        gains = self.effects.get("gains", (0.0,) * len(self.sensors))
+        if len(gains) != len(self.sensors) or not all(np.isfinite(g) and g > -1 for g in gains):
+            raise ValueError(f"gains {gains!r}: give one finite gain > -1 per sensor, {len(self.sensors)} in all")
         located = tuple((self.length if x is None else float(x), q) for x, q in self.sensors)
         object.__setattr__(self, "sensors", located)
         for _, quantity in located:

@@ -121,3 +121,45 @@ def test_undamped_release_is_the_modal_free_vibration():
                          ops.tip_value, P)[:, 0]
     static = static_k.sum()
     assert np.max(np.abs(y[200:] - expected[200:])) / static < 1e-8
+
+
+#: memory mechanisms on the paper beam (nominal EI 44.28 N m^2), each far from its instantaneous
+#: stiffness, so that a release from the unrelaxed state would start 10-20 % away at the tip:
+#: (model, values, relaxed EI written out here)
+MEMORY = [
+    # time hysteresis: G(0) = alpha sqrt(pi/beta) (erf = 1, r infinite) = 0.2 EI
+    ("q2", {"alpha": 0.2 * 44.28 / np.sqrt(np.pi / 40.0), "beta": 40.0}, 0.8 * 44.28),
+    # exponential: a rate kernel, G(0) = 0; at once it stiffens by c_e mu = 0.2 EI
+    ("exponential", {"c_e": 0.2 * 44.28 / 500.0, "mu": 500.0}, 44.28),
+    # fractional: G(0) = 0; at once it is rigid
+    ("fractional", {"c_f": 0.05, "nu": 0.5}, 44.28),
+    # thermoelastic: EI is the isothermal (relaxed) stiffness; at once EI (1 + kappa Delta),
+    # kappa Delta = 40 x 2.7e-3 = 0.11 for aluminium on this beam
+    ("thermoelastic", {"zener_scale": 40.0}, 44.28),
+]
+
+
+@pytest.mark.parametrize("model, values, relaxed", MEMORY, ids=[m[0] for m in MEMORY])
+def test_a_release_with_memory_starts_from_the_relaxed_static_deflection(model, values, relaxed):
+    """kind = "release" assumes the tip load held since t = -infinity, every memory relaxed: the
+    tip displacement BeamModel.simulate gives before the release (from 100 to 80 samples before
+    it) and at t = 0 is P l^3 / (3 EI_relaxed), the cantilever formula with the long-time
+    stiffness EI - G(0) written out here (MEMORY), not the instantaneous one (10 % or more away).
+    Tolerances as test_rests_in_static_deflection_before_release and
+    test_displacement_at_the_release_instant: 1e-6 before, 1e-4 at t = 0 (the band-limited step
+    has begun there by ~2e-5)."""
+    from dataclasses import replace
+
+    from bayesbeam.model import BeamModel
+    from tests.physics.effects.helpers import recording
+
+    fs = 2048.0
+    rec = recording("release", fs=fs, duration=1.0, sensors=((1.0, "displacement"),), tip_load=P,
+                    t0=-100 / fs)
+    depth = np.sqrt(12 * rec.beam.second_moment / rec.beam.area)
+    rec = replace(rec, extra={"material": {"name": "aluminium", "temperature": 293.0, "thickness": depth}})
+    assert rec.beam.modulus * rec.beam.second_moment == pytest.approx(44.28, rel=1e-3)
+    y = BeamModel(rec, model, 8).simulate({"EI": 44.28, **values})[:, 0]
+    static = P * rec.beam.length**3 / (3 * relaxed)
+    assert np.max(np.abs(y[:20] / static - 1)) < 1e-6
+    assert abs(y[100] / static - 1) < 1e-4

@@ -5,7 +5,8 @@ own mass, an axial load, amplitude-dependent drag or friction, a delay in the ac
 Like a damping mechanism it has named parameters (SI units) and adds to the Galerkin system:
 
 * linear effects add to the mass, damping or stiffness matrix, change the root condition of the basis,
-  or delay the response channels; the exact frequency-domain solver handles them;
+  delay the response channels, or filter them (a transfer function of the measurement chain applied
+  to each response channel, never to the force); the exact frequency-domain solver handles them;
 * nonlinear effects add a velocity-dependent force that needs a time integrator
   (:mod:`bayesbeam.response.nonlinear`).
 """
@@ -67,6 +68,27 @@ class Effect(Component):
     def delay(self, values) -> float:
         """Delay of every response channel behind the motion (s); the force channel is not delayed."""
         return 0.0
+
+    def channel_response(self, values, s: np.ndarray) -> np.ndarray | None:
+        """The measurement chain's transfer function at complex frequencies ``s`` (1/s), applied to
+        the response channels (never the force): an array broadcastable to (len(s), n_sensors),
+        or None where it is 1 (the default: the effect does not filter the channels)."""
+        return None
+
+    def channel_poles(self, values) -> tuple[np.ndarray, np.ndarray]:
+        """(poles q_k (1/s), residues r_k (1/s)) of :meth:`channel_response`, a rational function with
+        simple poles shared by every channel; empty by default. A free decay's mode e^{p t} seen
+        from rest through it gives H(p) e^{p t} + sum_k r_k / (q_k - p) e^{q_k t}
+        (:meth:`bayesbeam.model.BeamModel.free_decay_basis`)."""
+        return np.empty(0), np.empty(0)
+
+
+def per_sensor(single: str, pattern: str, sensor_names) -> tuple[str, ...]:
+    """An effect's parameter per sensor: ``(single,)`` for a recording's only sensor,
+    ``pattern.format(name)`` for each of several, so that a parameter belongs to a sensor by name,
+    never by the order of the ``[[sensor]]`` tables."""
+    names = tuple(sensor_names)
+    return (single,) if len(names) == 1 else tuple(pattern.format(n) for n in names)
 
 
 def octave(x: float) -> float:

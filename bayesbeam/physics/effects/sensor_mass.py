@@ -19,7 +19,7 @@ from __future__ import annotations
 import copy
 from typing import ClassVar
 
-from bayesbeam.physics.effects.base import Effect, octave
+from bayesbeam.physics.effects.base import Effect, octave, per_sensor
 
 #: the parameter of a recording's only sensor, and of sensor <s> among several
 SINGLE, PER_SENSOR = "m_s", "m_s_{}"
@@ -31,8 +31,7 @@ def mass_names(sensor_names) -> tuple[str, ...]:
     >>> mass_names(["tip"]), mass_names(["tip", "mid"])
     (('m_s',), ('m_s_tip', 'm_s_mid'))
     """
-    names = tuple(sensor_names)
-    return (SINGLE,) if len(names) == 1 else tuple(PER_SENSOR.format(n) for n in names)
+    return per_sensor(SINGLE, PER_SENSOR, sensor_names)
 
 
 class SensorMass(Effect):

@@ -2,8 +2,7 @@ r"""Thermoelastic damping (Zener 1937): heat flow across the thickness relaxes t
 
 Bending compresses one face and stretches the other; the faces heat and cool adiabatically, and
 the heat that flows across the thickness h before the stress reverses is lost. Zener's standard
-linear solid, with the fundamental thermal mode of a plate (it carries 96/pi^4 = 98.6 % of the
-strength), gives the bending stiffness
+linear solid, one relaxation at the slowest thermal time of the plate, gives the bending stiffness
 
 .. math:: EI(s) = EI\left(1 + \Delta\,\frac{s\tau}{1 + s\tau}\right), \qquad
           \Delta = \frac{E\,\alpha_T^2\,T_0}{\rho\,c_p}, \qquad \tau = \frac{h^2}{\pi^2 \chi},
@@ -16,7 +15,17 @@ the hereditary path (:math:`Z = s^2 M + s D + K - \hat G(s) K_0`)
 .. math:: \hat G(s) = -\kappa\,\Delta\, EI\,\frac{s\tau}{1 + s\tau},
 
 with one fitted parameter, the scale kappa (``zener_scale``, dimensionless): the material
-constants *predict* each mode's damping and kappa = 1 is Zener's value. Along s = i omega the
+constants *predict* each mode's damping and kappa = 1 is Zener's value.
+
+kappa = 1 puts the whole strength Delta in this one term. Heat conduction across an insulated
+slab relaxes through the odd thermal modes n = 1, 3, 5, ..., of strengths 96 Delta/(pi^4 n^4) at
+times tau/n^2 (tests/reference/thermoelastic.py): the slowest carries 96/pi^4 = 98.6 % of Delta,
+the rest relax 9, 25, ... times faster. So the exact loss over the single term's is
+pi^2/10 = 0.987 well below the peak (omega tau << 1), 0.988 at it, 1.05 at omega tau = 10, and
+tends to 12/pi^2 = 1.22 far above it (tests/physics/mechanisms/test_thermoelastic.py). A fitted
+kappa that is Zener's physics therefore lies between about 0.99 and 1.2, by where the fitted
+modes sit against 1/tau; no single scale (not 96/pi^4) makes the one term exact at every
+frequency. Along s = i omega the
 loss factor is :math:`\kappa\Delta\,\omega\tau / (1 + \omega^2\tau^2(1 + \kappa\Delta))`, so to
 first order in Delta (2e-3 for steel, 4e-3 for aluminium at 293 K) each mode's damping ratio is
 
@@ -30,6 +39,7 @@ Causal (one pole at -1/tau), passive (:math:`-\mathrm{Im}\,\hat G(i\omega) > 0`)
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -65,7 +75,7 @@ class ZenerConstants:
 class Thermoelastic(Mechanism):
     name = "thermoelastic"
     parameters = ("zener_scale",)
-    units = {"zener_scale": "-"}
+    units: ClassVar[dict[str, str]] = {"zener_scale": "-"}
     hereditary = True
     description = ("thermoelastic (Zener), EI(s) = EI (1 + kappa Delta s tau/(1 + s tau)), "
                    "Delta and tau from [material]")

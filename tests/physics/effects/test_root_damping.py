@@ -84,3 +84,49 @@ def test_fast_transfer_form_equals_a_direct_solve(spec, extra):
     fast = system.transfer(s, model.rows, model.load[:, None])
     direct = np.stack([model.rows @ np.linalg.solve(z, model.load) for z in system.dynamic_stiffness(s)])[:, :, None]
     assert np.max(np.abs(fast - direct)) <= 1e-9 * np.max(np.abs(direct))
+
+
+def _elastic_and_clamped(m: int, k_theta: float) -> tuple[float, float, float]:
+    """(omega_m^2, phi_m'(0)^2, omega_c,m^2) of the beam with a root spring k_theta, from the
+    characteristic equation kappa (1 + cos b cosh b) = (EI/l) b (sin b cosh b - cos b sinh b),
+    b = beta l (the determinant above, expanded): the elastic mode's b between the pinned-free and
+    clamped-free ones, its root slope squared as d lambda / d kappa along the equation, and the
+    clamped-free b (1 + cos b cosh b = 0). l = 1 m."""
+    from scipy.optimize import brentq
+
+    lam = lambda b: b**4 * PAPER_EI / REC.beam.rho_a
+    stiffness = lambda b: PAPER_EI * b * (np.sin(b) * np.cosh(b) - np.cos(b) * np.sinh(b)) / (1 + np.cos(b) * np.cosh(b))
+    clamped = brentq(lambda b: 1 + np.cos(b) * np.cosh(b), (m - 0.5) * np.pi - 0.6, (m - 0.5) * np.pi + 0.6)
+    lower = (m - 0.75) * np.pi if m > 1 else 1e-3           # above the pinned-free root below it
+    elastic = brentq(lambda b: k_theta * (1 + np.cos(b) * np.cosh(b)) - PAPER_EI * b * (
+        np.sin(b) * np.cosh(b) - np.cos(b) * np.sinh(b)), lower, clamped - 1e-12)
+    h = 1e-6 * elastic
+    slope = (lam(elastic + h) - lam(elastic - h)) / (stiffness(elastic + h) - stiffness(elastic - h))
+    return lam(elastic), slope, lam(clamped)
+
+
+@pytest.mark.parametrize("mode", [1, 2, 3])
+def test_the_damping_peaks_near_omega_c_theta_equal_k_theta_as_the_closed_form_says(mode):
+    """The module docstring's closed form, from the characteristic equation alone (written out
+    here), against the model's modal damping ratio (quintic, N = 16) at a stiff clamp
+    (k_theta l / EI = 100) over omega_m c_theta / k_theta = 0.01 to 10:
+    zeta = g x / (2 (omega_m^2 (1 + x^2) + g x^2)), x = omega_m c_theta phi'(0)^2 / g,
+    g = omega_c^2 - omega_m^2. Tolerance 2.5 %: the form drops terms of relative order
+    g / omega_m^2 = 4 % here (measured at most 1.9 %, at the ends of the range, where the dashpot's
+    own stiffening moves the frequency; the discretisation adds 1e-5). At 0.01 it is the first-order
+    c phi'(0)^2 / (2 omega) to 1e-4 (measured 6e-6). The damping rises to its peak near 1 (the
+    largest of the ratios at 1, its value g / (4 omega_m^2) to 2 %) and falls fivefold by 10."""
+    model = BeamModel(REC, "root_compliance+root_damping", 16, degree=5)
+    k_theta = 100 * PAPER_EI
+    lam, slope, clamped = _elastic_and_clamped(mode, k_theta)
+    gap, omega = clamped - lam, np.sqrt(lam)
+    ratios = np.geomspace(0.01, 10, 13)
+    c_theta = ratios * k_theta / omega
+    zeta = np.array([model.modal_damping_ratios({"EI": PAPER_EI, "k_theta": k_theta, "c_theta": c}, 3)[mode - 1]
+                     for c in c_theta])
+    x = omega * c_theta * slope / gap
+    closed = gap * x / (2 * (lam * (1 + x**2) + gap * x**2))
+    np.testing.assert_allclose(zeta, closed, rtol=0.025)
+    assert zeta[0] == pytest.approx(c_theta[0] * slope / (2 * omega), rel=1e-4)
+    assert np.argmax(zeta) == 8 and zeta[8] == pytest.approx(gap / (4 * lam), rel=0.02)
+    assert zeta[-1] < zeta[8] / 4
