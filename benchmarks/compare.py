@@ -73,13 +73,19 @@ def model_table(base: dict, new: dict) -> list[str]:
     return lines
 
 
+def full_path(current: CompareConfig) -> CompareConfig:
+    """The baseline of ``current``: cubic splines, every repeat of every model, three accepted SMC
+    moves per particle."""
+    return replace(current, fit=replace(current.fit, degree=3), early_stop=None, min_moved=None)
+
+
 def configs(args) -> tuple[CompareConfig, CompareConfig]:
     """(baseline, current) comparison settings of the parsed command line."""
-    cubic = FitConfig(max_frequency=args.max_frequency, degree=3)
-    current = CompareConfig(replace(cubic, degree=args.degree or FitConfig.degree), repeats=args.repeats)
+    current = CompareConfig(FitConfig(max_frequency=args.max_frequency, degree=args.degree or FitConfig.degree),
+                            repeats=args.repeats)
     if args.min_moved is not None:
         current = replace(current, min_moved=args.min_moved)
-    return replace(current, fit=cubic, early_stop=None, min_moved=None), current
+    return full_path(current), current
 
 
 def parser() -> argparse.ArgumentParser:
