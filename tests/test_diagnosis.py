@@ -9,6 +9,7 @@ here: the reference simulator's recordings of tests/diagnosis_cases.py (paper be
 and 20 map replicates. The layout and the bookkeeping are plumbing and read the cheap
 BeamModel-made case of tests/diagnosis_cases.py.
 """
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -366,17 +367,18 @@ def test_a_diagnosis_from_a_comparison_starts_from_its_baseline(monkeypatch, tmp
     float back to itself), and the chain goes on to add the spring. The comparison is the call the
     diagnosis's own baseline makes (``baseline_fits``: same models, options and seed), and a model
     read back equals the one compare() returned (tests/test_saved_comparison.py), so a diagnosis
-    fitting its baseline would decide alike. The default models are cut to q1 and q2 to halve the
-    cost; q2 wins the comparison here, so the damping re-check starts q1 from the read-back fit."""
+    fitting its baseline would decide alike. The models are cut to q1 and q2 (``models``, as
+    ``--models q1,q2``) to halve the cost; q2 wins the comparison here, so the damping re-check
+    starts q1 from the read-back fit."""
     from importlib import import_module
 
     from bayesbeam.report.compare_outputs import write_comparison
     from tests.diagnosis_cases import CONFIG
 
     dg = import_module("bayesbeam.diagnosis")    # the module: the package's name "diagnose" may be the function
-    monkeypatch.setattr(dg, "DEFAULT_MODELS", ("q1", "q2"))
+    config = replace(CONFIG, models=("q1", "q2"))
     rec = recording("root_compliance")
-    results, summary = dg.compare(rec, ["q1", "q2"], CONFIG.compare, None)
+    results, summary = dg.compare(rec, ["q1", "q2"], config.compare, None)
     write_comparison(results, summary, tmp_path)
     calls, fitted = [], dg.compare
 
@@ -385,7 +387,7 @@ def test_a_diagnosis_from_a_comparison_starts_from_its_baseline(monkeypatch, tmp
         return fitted(rec, models, *args, **options)
 
     monkeypatch.setattr(dg, "compare", spy)
-    read = diagnose(rec, None, CONFIG, from_comparison=tmp_path)
+    read = diagnose(rec, None, config, from_comparison=tmp_path)
     assert not {"q1", "q2"} & {m for models in calls for m in models}, calls
     assert calls                                # the augmented models and the re-check were fitted
     assert read.baseline.name == summary["best"] == "q2"
