@@ -94,9 +94,9 @@ def main(argv=None) -> int:
     print(f"reference q3 hammer test, accelerometers at tip and mid-span: {rec.n_samples} samples at {rec.fs:g} Hz "
           f"({rec.n_samples / rec.fs:g} s, made in {time.perf_counter() - started:.0f} s); band {args.max_frequency:g} Hz; "
           f"{args.processes} process(es)")
-    (_, full), full_compare_wall = timed(lambda pool: compare(rec, DEFAULT_MODELS, full_path(config.compare), pool),
+    (_, full_path_summary), full_compare_wall = timed(lambda pool: compare(rec, DEFAULT_MODELS, full_path(config.compare), pool),
                                          args.processes)
-    print(f"compare, five default models, full path: {full_compare_wall:.1f} s; ranking {full['ranking']}")
+    print(f"compare, five default models, full path: {full_compare_wall:.1f} s; ranking {full_path_summary['ranking']}")
     (results, summary), compare_wall = timed(lambda pool: compare(rec, DEFAULT_MODELS, config.compare, pool), args.processes)
     folder = tempfile.mkdtemp(prefix="from_comparison_")
     write_comparison(results, summary, folder)
@@ -121,7 +121,7 @@ def main(argv=None) -> int:
                   target_seconds=TARGET_SECONDS["diagnose"], compare_baseline_seconds=full_compare_wall,
                   compare_current_seconds=compare_wall, compare_wall_ratio=full_compare_wall / compare_wall,
                   compare_target_seconds=TARGET_SECONDS["compare"],
-                  compare_rankings_agree=full["ranking"] == summary["ranking"])
+                  compare_rankings_agree=full_path_summary["ranking"] == summary["ranking"])
     return 0
 
 
