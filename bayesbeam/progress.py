@@ -3,7 +3,8 @@
 A :class:`Progress` is what the commands and the Python API hand down as ``log``: called with a
 line of text it prints a note (above any open bar); :meth:`Progress.stage` opens a bar for a
 stage of countable work (models optimised, SMC runs, emcee steps). Bars are ``tqdm.auto``'s: a
-widget in a Jupyter notebook, a redrawn line on a terminal, a few plain lines in a log file;
+widget in a Jupyter notebook (with ipywidgets installed; text bars without it), a redrawn line on
+a terminal, a few plain lines in a log file;
 tqdm's estimate of the time left is the rate so far times the work left, so a stage whose
 total is not known in advance (an emcee chain stops when it is long enough) updates its total as
 the estimate of what is needed improves (:meth:`Bar.retotal`).
@@ -13,10 +14,16 @@ the estimate of what is needed improves (:meth:`Bar.retotal`).
 """
 from __future__ import annotations
 
+import importlib.util
 import sys
 from contextlib import contextmanager
 
-from tqdm.auto import tqdm
+# in a notebook tqdm.auto draws widgets, which need ipywidgets; without it, it falls back to text
+# bars and warns on every import: take the text bars directly then
+if importlib.util.find_spec("ipywidgets") is not None:
+    from tqdm.auto import tqdm
+else:
+    from tqdm import tqdm
 
 
 class Bar:

@@ -7,7 +7,8 @@ import pytest
 
 #: module -> the distribution that provides it (pyproject.toml, [project.optional-dependencies] test)
 REQUIRED = {"dynesty": "dynesty", "pyyeti": "pyyeti", "sdypy.EMA": "sdypy-EMA", "mpmath": "mpmath",
-            "distributed": "distributed", "hypothesis": "hypothesis"}
+            "distributed": "distributed", "hypothesis": "hypothesis", "nbclient": "nbclient",
+            "nbformat": "nbformat", "ipykernel": "ipykernel"}
 
 
 def _installed(module: str) -> bool:

@@ -8,12 +8,10 @@ from __future__ import annotations
 import io
 from pathlib import Path
 
-import matplotlib
-import matplotlib.ticker
-
-matplotlib.use("Agg")
 import corner
+import matplotlib
 import matplotlib.pyplot as plt
+import matplotlib.ticker
 import numpy as np
 
 from bayesbeam.io.atomic import atomic_write

@@ -6,9 +6,6 @@ frequencies, the mains lines found and the suggested top of the fitted band mark
 """
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
