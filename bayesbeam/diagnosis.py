@@ -78,6 +78,7 @@ from bayesbeam.inference.priors import (
     stated_sensor_masses,
 )
 from bayesbeam.model import BeamModel, join_model, resolve_model
+from bayesbeam.physics.effects import REGISTRY as EFFECTS
 from bayesbeam.saved_comparison import SavedComparison
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
@@ -234,15 +235,17 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     baseline, baseline_map = current, mismatch
     say(f"baseline {current.name}: RMS standardized residual {mismatch.rms_standardized_residual:.2f}, "
         f"{len(mismatch.regions)} mismatch region(s)")
-    rankings, trials, not_fitted = [], [], []
+    rankings, trials, not_fitted, last_added = [], [], [], None
     for round_ in range(1, config.rounds + 1):
         ranking = rank_effects(current.problem.posterior, _draws(current), mismatch)
         rankings.append(ranking)
         if not beam_regions(mismatch) and ranking.p_value >= ALPHA:
             say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")
             break
+        partners = partner_effects(last_added) if last_added else set()
         chosen, left_out = _fittable(rec, current, _candidates(ranking, mismatch, config.candidates,
-                                                                  rec.excitation.kind == "free_decay"), round_)
+                                                                  rec.excitation.kind == "free_decay", partners),
+                                     round_)
         not_fitted += left_out
         for n in left_out:
             say(f"round {round_}: not fitting {n.model}: {n.reason}")
@@ -257,7 +260,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
             say(f"round {round_}: no candidate passes (decisive evidence and an improved map)")
             break
         best = max(winners, key=lambda t: t.log_bayes_factor)
-        best.added = True
+        best.added, last_added = True, best.effect
         current, mismatch = best.result, best.mismatch
         say(f"added {label(best.effect, effect_parameters(best), rec)}: ln B = {best.log_bayes_factor:.1f} +- {best.log_bayes_factor_sd:.1f}, "
             f"RMS standardized residual {mismatch.rms_standardized_residual:.2f}")
@@ -462,9 +465,19 @@ DECAY_SHAPE = {1: "quadratic_drag",      # damping falls as the vibration decays
                -1: "dry_friction"}       # damping rises as the vibration decays
 
 
-def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False) -> list:
-    """The supported candidates in ranking order (at least the top one, at most ``n``), and the
-    effect the decay shapes point to (:func:`amplitude_dependence`). On a free decay with none
+def partner_effects(added: str) -> set[str]:
+    """The catalogue effects that need ``added`` beside them (their ``requires``): the root dashpot
+    of a root spring. They could not be fitted before it was added, and the screen, linearised about
+    their absence, can rank them low while the partner stands in for them (a root spring fitted
+    alone to a clamp with losses lands several of its own sds off): the round after ``added`` fits
+    them whatever their rank."""
+    return {name for name, effect in EFFECTS.items() if added in effect.requires}
+
+
+def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False, partners=()) -> list:
+    """The supported candidates in ranking order (at least the top one, at most ``n``), the
+    ``partners`` of the effect added last (:func:`partner_effects`), and the effect the decay
+    shapes point to (:func:`amplitude_dependence`). On a free decay with none
     supported, every ranked candidate: there the screen has no excitation time (no phases) and
     fits the initial state freely (little left in the amplitudes), beside a memory baseline it
     projected a sensor mass and an axial load worth 1800 nats to nothing (the real record,
@@ -482,7 +495,7 @@ def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False) -
     ranked = _first_per_effect(ranking.candidates)
     supported = [c for c in ranked if c.supported]
     chosen = supported[:n] or (ranked if free_decay else ranked[:1])
-    shapes = amplitude_dependence(mismatch) | input_shift(mismatch)
+    shapes = amplitude_dependence(mismatch) | input_shift(mismatch) | set(partners)
     return chosen + [c for c in ranked if c.effect in shapes and c not in chosen]
 
 

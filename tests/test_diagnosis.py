@@ -97,6 +97,24 @@ def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["quadratic_drag", "dry_friction"]
 
 
+def test_the_round_after_a_root_spring_fits_its_dashpot_whatever_its_rank():
+    """Clamp losses: once root_compliance is added, root_damping (which requires it) is fitted in
+    the next round even when the screen ranks it last and unsupported; a sensor mass added brings
+    no partner."""
+    from bayesbeam.diagnosis import _candidates, partner_effects
+
+    def cand(effect, supported):
+        return SimpleNamespace(effect=effect, supported=supported)
+
+    assert partner_effects("root_compliance") == {"root_damping"} and partner_effects("sensor_mass") == set()
+    ranking = SimpleNamespace(candidates=[cand("axial_load", True), cand("sensor_mass", False),
+                                          cand("root_damping", False)])
+    plain = SimpleNamespace(phase={}, modes=[_mode(0.01, 0.3), _mode(-0.01, 0.6)])
+    assert [c.effect for c in _candidates(ranking, plain, 2)] == ["axial_load"]
+    assert [c.effect for c in _candidates(ranking, plain, 2, partners=partner_effects("root_compliance"))] == [
+        "axial_load", "root_damping"]
+
+
 def test_a_sensor_mass_ranked_at_two_sensors_is_fitted_once_from_the_best_ranked():
     """The screen ranks a mass per sensor; fitting sensor_mass fits every sensor's, so it is one
     augmented model, started from the best-ranked sensor's value and the others' stated masses."""
