@@ -386,15 +386,15 @@ def test_a_diagnosis_from_a_comparison_starts_from_its_baseline(monkeypatch, tmp
     diagnosis's own baseline makes (``baseline_fits``: same models, options and seed), and a model
     read back equals the one compare() returned (tests/test_saved_comparison.py), so a diagnosis
     fitting its baseline would decide alike. The models are cut to q1 and q2 (``models``, as
-    ``--models q1,q2``) to halve the cost; q2 wins the comparison here, so the damping re-check
-    starts q1 from the read-back fit."""
+    ``--models q1,q2``) and the rounds to one, to cut the cost; q2 wins the comparison here, so the
+    damping re-check starts q1 from the read-back fit."""
     from importlib import import_module
 
     from bayesbeam.report.compare_outputs import write_comparison
     from tests.diagnosis_cases import CONFIG
 
     dg = import_module("bayesbeam.diagnosis")    # the module: the package's name "diagnose" may be the function
-    config = replace(CONFIG, models=("q1", "q2"))
+    config = replace(CONFIG, models=("q1", "q2"), rounds=1)
     rec = recording("root_compliance")
     results, summary = dg.compare(rec, ["q1", "q2"], config.compare, None)
     write_comparison(results, summary, tmp_path)
