@@ -21,14 +21,16 @@ RESULTS = HERE / "results"
 README = HERE / "README.md"
 #: the benchmarks with a block in README.md, in its order
 NAMES = ("forward", "effects", "sampling", "batch", "compare", "compare_full", "diagnose",
-         "diagnose_paper_quadratic_drag", "diagnose_paper_dry_friction", "from_comparison", "basis", "ppc")
+         "diagnose_paper_quadratic_drag", "diagnose_paper_dry_friction", "from_comparison", "from_comparison_root_spring",
+         "basis", "ppc")
 #: results kept under another name than their script's (name -> script): the same benchmark at another setting
 SCRIPTS = {"compare_full": "compare", "diagnose_paper_quadratic_drag": "diagnose",
-           "diagnose_paper_dry_friction": "diagnose"}
+           "diagnose_paper_dry_friction": "diagnose", "from_comparison_root_spring": "from_comparison"}
 #: the arguments that make a script produce the result of that name (none: its default run)
 ARGUMENTS = {"compare": ["--max-frequency", "150"],
              "diagnose_paper_quadratic_drag": ["--concealed", "paper_quadratic_drag"],
-             "diagnose_paper_dry_friction": ["--concealed", "paper_dry_friction"]}
+             "diagnose_paper_dry_friction": ["--concealed", "paper_dry_friction"],
+             "from_comparison_root_spring": ["--k-theta", "4000"]}
 
 sys.path.insert(0, str(HERE.parent))          # the working tree's bayesbeam, even if another copy is installed
 
@@ -55,7 +57,9 @@ TARGETS = {("compare", ""): "`compare`, five default models, 150 Hz",
            ("diagnose_paper_quadratic_drag", ""): "`diagnose`, concealed drag (paper beam, 3 s at 1024 Hz)",
            ("diagnose_paper_dry_friction", ""): "`diagnose`, concealed tip friction (paper beam, 3 s at 1024 Hz)",
            ("from_comparison", "compare_"): "`compare`, two accelerometers, 4 s at 4096 Hz, 150 Hz",
-           ("from_comparison", ""): "`diagnose --from-comparison` of that comparison (baseline: fitting its own)"}
+           ("from_comparison", ""): "`diagnose --from-comparison` of that comparison (baseline: fitting its own)",
+           ("from_comparison_root_spring", "compare_"): "`compare`, the same with a root spring concealed",
+           ("from_comparison_root_spring", ""): "`diagnose --from-comparison` of it (baseline: fitting its own)"}
 
 
 def targets() -> str:
