@@ -243,11 +243,11 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
             say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")
             break
         partners = partner_effects(last_added) if last_added else set()
-        chosen, left_out = _fittable(rec, current, _candidates(ranking, mismatch, config.candidates,
+        chosen, unfitted = _fittable(rec, current, _candidates(ranking, mismatch, config.candidates,
                                                                   rec.excitation.kind == "free_decay", partners),
                                      round_)
-        not_fitted += left_out
-        for n in left_out:
+        not_fitted += unfitted
+        for n in unfitted:
             say(f"round {round_}: not fitting {n.model}: {n.reason}")
         if not chosen:
             break

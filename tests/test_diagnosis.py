@@ -432,3 +432,20 @@ def test_the_recheck_compares_the_damping_models_the_diagnosis_was_given(monkeyp
     config = dg.DiagnoseConfig(models=("q1", "q3", "fractional"))
     dg.recheck_damping(None, _result("q3+root_compliance", -90.0), ("root_compliance",), config, None, None)
     assert asked == ["q1+root_compliance", "fractional+root_compliance"]
+
+
+def test_a_candidate_not_fitted_leaves_the_models_left_out_alone(monkeypatch):
+    """plumbing: a round whose candidate cannot be fitted (here forced) records it under not_fitted,
+    and the damping models left out (none: no thermoelastic asked for) stay a dict: diagnosis.json
+    and its summary paragraph are written (a list there once broke the paragraph)."""
+    from importlib import import_module
+
+    from tests.diagnosis_cases import CONFIG
+
+    dg = import_module("bayesbeam.diagnosis")
+    refused = dg.NotFitted(1, "q1+axial_load", "forced by the test")
+    monkeypatch.setattr(dg, "_fittable", lambda rec, current, candidates, round_: ([], [refused]))
+    d = diagnose(recording("root_compliance"), "q1", replace(CONFIG, rounds=1))
+    summary = d.to_dict()
+    assert d.left_out == {} and summary["left_out"] == {}
+    assert [n.model for n in d.not_fitted] == ["q1+axial_load"]
