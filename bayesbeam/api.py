@@ -95,6 +95,18 @@ def _log(args):
     return Progress(enabled=not args.quiet)
 
 
+#: what a reopened fit lacks, and the fix (:func:`_live`)
+FIT_REOPENED = ("the fitted model", "fit", "run bayesbeam.fit() again, or look at the folder's PNG files.")
+
+
+def _live(value, what: str, needs: str, kind: str, fix: str):
+    """``value`` (what a live run holds and a reopened folder does not); ValueError naming the
+    method, what it needs and the fix when it is None."""
+    if value is None:
+        raise ValueError(f"{what}() needs {needs}, which a reopened {kind} does not hold. Fix: {fix}")
+    return value
+
+
 def _folder(folder, overwrite: bool) -> Path:
     """``folder`` as the commands check their --out (not a file; empty unless ``overwrite``)."""
     from bayesbeam.cli.common import output_folder
@@ -207,24 +219,18 @@ class Fit:
     def plot_trace(self):
         from bayesbeam.report.plots import trace_plot
 
-        return trace_plot(self._live("plot_trace"))
+        return trace_plot(_live(self.result, "plot_trace", *FIT_REOPENED))
 
     def plot_fit(self, channel: int = 0):
         from bayesbeam.report.plots import fit_plot
 
-        return fit_plot(self._live("plot_fit"), channel)
-
-    def _live(self, what: str):
-        if self.result is None:
-            raise ValueError(f"{what}() needs the fitted model, which a reopened fit does not hold. "
-                             f"Fix: run bayesbeam.fit() again, or look at the folder's PNG files.")
-        return self.result
+        return fit_plot(_live(self.result, "plot_fit", *FIT_REOPENED), channel)
 
     def write(self, folder, overwrite: bool = False) -> list[Path]:
         """posterior.nc, summary.json, corner.png, trace.png, fit.png: what ``bayesbeam fit`` writes."""
         from bayesbeam.report.fit_outputs import write_fit
 
-        return write_fit(self._live("write"), _folder(folder, overwrite))
+        return write_fit(_live(self.result, "write", *FIT_REOPENED), _folder(folder, overwrite))
 
 
 def fit(recording, **options_) -> Fit:
@@ -288,10 +294,9 @@ class Comparison:
         """comparison.json, report.html, damping_per_mode.png, posteriors/: what ``bayesbeam compare`` writes."""
         from bayesbeam.report.compare_outputs import write_comparison
 
-        if self.results is None:
-            raise ValueError("write() needs the comparison's fitted models, which a reopened comparison does not "
-                             "hold. Fix: copy its folder, or run bayesbeam.compare() again.")
-        return write_comparison(self.results, self.summary_dict, _folder(folder, overwrite))
+        results = _live(self.results, "write", "the comparison's fitted models", "comparison",
+                        "copy its folder, or run bayesbeam.compare() again.")
+        return write_comparison(results, self.summary_dict, _folder(folder, overwrite))
 
 
 def compare(recording, **options_) -> Comparison:
@@ -368,19 +373,17 @@ class Diagnosis:
         """The mismatch map: standardized residual by time and frequency, baseline against final."""
         from bayesbeam.report.diagnosis import compared_maps, mismatch_map_plot
 
-        if self.result is None:
-            raise ValueError("plot_mismatch() needs the maps, which a reopened diagnosis does not hold. "
-                             "Fix: open its report.html, or run bayesbeam.diagnose() again.")
-        return mismatch_map_plot(compared_maps(self.result))
+        result = _live(self.result, "plot_mismatch", "the maps", "diagnosis",
+                       "open its report.html, or run bayesbeam.diagnose() again.")
+        return mismatch_map_plot(compared_maps(result))
 
     def write(self, folder, overwrite: bool = False) -> list[Path]:
         """diagnosis.json, report.html, posteriors/: what ``bayesbeam diagnose`` writes."""
         from bayesbeam.report.diagnose_outputs import write_diagnosis
 
-        if self.result is None:
-            raise ValueError("write() needs the diagnosis's fitted models, which a reopened diagnosis does not "
-                             "hold. Fix: copy its folder, or run bayesbeam.diagnose() again.")
-        return write_diagnosis(self.result, self.summary_dict, _folder(folder, overwrite))
+        result = _live(self.result, "write", "the diagnosis's fitted models", "diagnosis",
+                       "copy its folder, or run bayesbeam.diagnose() again.")
+        return write_diagnosis(result, self.summary_dict, _folder(folder, overwrite))
 
 
 def diagnose(recording, **options_) -> Diagnosis:
