@@ -49,8 +49,10 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
    channel's signal (:mod:`bayesbeam.checks.discrepancy`, section (e)). Smaller statistically
    significant regions are listed as negligible.
 
-Nothing is fitted when the baseline's map flags nothing and its signature mismatch is
-insignificant: there is nothing to explain, and ``added`` is empty.
+Nothing is fitted when the baseline's map flags nothing, its signature mismatch is
+insignificant and no pickup line (``mains_lines``) is supported: there is nothing to explain, and
+``added`` is empty. A supported pickup line is fitted like any candidate although the map labels it
+"not beam physics": the evidence and the map decide whether it is added.
 """
 from __future__ import annotations
 
@@ -60,7 +62,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locate, share_words
-from bayesbeam.checks.signatures import rank_effects
+from bayesbeam.checks.signatures import LINE_EFFECTS, rank_effects
+from bayesbeam.checks.survey import survey
 from bayesbeam.comparison import (
     DEFAULT_MODELS,
     CompareConfig,
@@ -79,6 +82,7 @@ from bayesbeam.inference.priors import (
 )
 from bayesbeam.model import BeamModel, join_model, resolve_model
 from bayesbeam.physics.effects import REGISTRY as EFFECTS
+from bayesbeam.physics.effects.mains_lines import nominal_mains
 from bayesbeam.saved_comparison import SavedComparison
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
@@ -93,6 +97,10 @@ GRAVITY = 9.80665
 HIGH_PASS_LIMIT = 10.0
 #: stated calibration tolerances a fitted channel gain may lie from 0 (:func:`stand_in`)
 GAIN_STAND_IN_TOLERANCES = 5.0
+#: a support resonance above this many times the Nyquist frequency fs/2 is none (:func:`stand_in`)
+BASE_FREQUENCY_LIMIT = 10.0
+#: a base heavier than this many times the mass beyond the clamp (rho A l + m_T) is none (:func:`stand_in`)
+BASE_MASS_LIMIT = 1e4
 
 
 @dataclass
@@ -103,7 +111,8 @@ class DiagnoseConfig:
     candidates: augmented models fitted per round; rounds: effects added at most;
     replicates: replicates of the mismatch map (see :func:`bayesbeam.checks.discrepancy.locate`);
     models: the damping models the baseline is chosen from and the damping re-check compares
-    (names or named sets of :data:`bayesbeam.comparison.MODEL_SETS`).
+    (names or named sets of :data:`bayesbeam.comparison.MODEL_SETS`); catalogue: the effects
+    the screen ranks (names of :data:`bayesbeam.physics.effects.REGISTRY`; None: all of them).
     """
 
     compare: CompareConfig = field(default_factory=CompareConfig)
@@ -111,6 +120,7 @@ class DiagnoseConfig:
     rounds: int = 2
     replicates: int = 40
     models: tuple = DEFAULT_MODELS
+    catalogue: tuple | None = None
 
 
 @dataclass
@@ -237,9 +247,9 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         f"{len(mismatch.regions)} mismatch region(s)")
     rankings, trials, not_fitted, last_added = [], [], [], None
     for round_ in range(1, config.rounds + 1):
-        ranking = rank_effects(current.problem.posterior, _draws(current), mismatch)
+        ranking = rank_effects(current.problem.posterior, _draws(current), mismatch, config.catalogue)
         rankings.append(ranking)
-        if not beam_regions(mismatch) and ranking.p_value >= ALPHA:
+        if not beam_regions(mismatch) and ranking.p_value >= ALPHA and not pickup_supported(ranking):
             say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")
             break
         partners = partner_effects(last_added) if last_added else set()
@@ -519,6 +529,13 @@ def input_shift(mismatch: Mismatch) -> set[str]:
     return {"measurement_delay"} if (mismatch.phase.get("force") or {}).get("significant") else set()
 
 
+def pickup_supported(ranking) -> bool:
+    """Whether the screen supports a pickup line (:data:`~bayesbeam.checks.signatures.LINE_EFFECTS`):
+    the map labels such a line "not beam physics" and the mode features do not see it, so it is
+    something to explain only through its own candidate."""
+    return any(c.supported and c.effect in LINE_EFFECTS for c in ranking.candidates)
+
+
 def amplitude_dependence(mismatch: Mismatch) -> set[str]:
     """Drag and/or friction when some mode's decay curvature differs from the model's replicates
     at level ALPHA / (number of modes), two-sided.
@@ -705,13 +722,29 @@ def allowed_by_setup(effect: str, rec) -> dict[str, tuple[float, float]]:
     if effect == "channel_gain":
         return {name: (-GAIN_STAND_IN_TOLERANCES * tol, GAIN_STAND_IN_TOLERANCES * tol)
                 for name, tol in stated_gain_tolerances(setup).items()}
+    if effect == "base_support":
+        return {"f_b": (0.0, BASE_FREQUENCY_LIMIT / (2 * rec.dt)),
+                "m_b": (0.0, BASE_MASS_LIMIT * (rec.beam.rho_a * rec.beam.length + rec.tip.mass))}
     return {}
+
+
+def _not_needed(effect: str, name: str, summary: dict, rec) -> bool:
+    """Whether a base's f_b posterior reaches up to where the effect vanishes (its upper 5 % point
+    within a factor 2 of ``absent``): the data need no base, which is no stand-in."""
+    if (effect, name) != ("base_support", "f_b"):
+        return False
+    return summary["q95"] >= 0.5 * EFFECTS[effect].bind(rec).absent[name]
 
 
 #: why a fitted measurement-chain effect is a stand-in (see :func:`stand_in`)
 STAND_IN_WHY = {
     "high_pass": f"above {HIGH_PASS_LIMIT:g} Hz, far above any IEPE sensor's or DAQ's AC-coupling corner",
     "channel_gain": f"more than {GAIN_STAND_IN_TOLERANCES:g} times the sensor's stated calibration tolerance",
+    "base_support": (f"a base resonance above {BASE_FREQUENCY_LIMIT:g} times the Nyquist frequency acts in the band only "
+                     f"as a translational root compliance, or a base over {BASE_MASS_LIMIT:g} times the mass beyond "
+                     "the clamp barely couples to the beam"),
+    "mains_lines": ("the record shows no line at a harmonic of f_mains that keeps its amplitude over the record "
+                    "(bayesbeam check's mains-line test), so its sinusoids absorb a mode or a transient, not pickup"),
 }
 
 
@@ -742,9 +775,22 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
       sensor's ``gain_tolerance`` (0.02 where not stated). A calibration five of its own
       uncertainties off is not a calibration error; the gain stands in for an amplitude mismatch of
       the channel (a sensor off its stated place, a wrong mode shape there).
+    * ``base_support``: median f_b above :data:`BASE_FREQUENCY_LIMIT` = 10 times the Nyquist
+      frequency fs/2, or median m_b above :data:`BASE_MASS_LIMIT` = 1e4 times the mass beyond the
+      clamp, rho A l + m_T. A base resonance ten times above all the recording resolves shows in the
+      band only as a translational compliance of the root, lowering mode m by about
+      (f_m/f_b)^2 L_m^2/(2 m_b), the high modes most: the pattern of the shear deformation and rotary
+      inertia an Euler-Bernoulli beam leaves out, or of a stiffness that varies along the span, and
+      only k_b = m_b (2 pi f_b)^2 is seen, not a stand's mass and mode. (When f_b's upper 5 % point
+      reaches within a factor 2 of where the effect vanishes, 1e4 f_1, the data need no base: no
+      stand-in.) A base 1e4 times the beam's mass couples to mode m by L_m^2/m_b < 1e-4: it can add
+      only a resonance of its own that hardly moves the beam, a peak that something else gives (the
+      default prior stops at 100 beam masses; a [prior.m_b] reaching further can show it).
     """
+    if effect == "mains_lines":
+        return _pickup_stand_in(parameters, rec)
     for name, (low, high) in allowed_by_setup(effect, rec).items():
-        if name not in parameters:
+        if name not in parameters or _not_needed(effect, name, parameters[name], rec):
             continue
         median = parameters[name]["q50"]
         if not low <= median <= high:
@@ -755,6 +801,19 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
             return {"parameter": name, "median": median, "allowed": [low, high], "unit": parameters[name]["unit"],
                     "why": why}
     return None
+
+
+def _pickup_stand_in(parameters: dict, rec) -> dict | None:
+    """:func:`stand_in`'s rule for ``mains_lines``: a stand-in unless some response channel of ``rec``
+    shows a persistent line (:func:`bayesbeam.checks.survey.mains_lines`) within two bins of a harmonic
+    of its f_mains: the median of a sampled one, else the nominal one the fit held fixed."""
+    f_mains = parameters["f_mains"]["q50"] if "f_mains" in parameters else nominal_mains(rec)
+    tolerance = 2 * rec.fs / rec.n_samples
+    lines = [line["peak_hz"] for channel in survey(rec).summary["channels"] for line in channel["mains_lines"]]
+    if any(round(f / f_mains) >= 1 and abs(f - round(f / f_mains) * f_mains) <= tolerance for f in lines):
+        return None
+    return {"parameter": "f_mains", "median": float(f_mains), "allowed": None, "unit": "Hz",
+            "why": STAND_IN_WHY["mains_lines"]}
 
 
 def _trial_entry(t: Trial, signature) -> dict:
@@ -793,7 +852,7 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
     rec = d.baseline.problem.model.recording
     verdicts = [stand_in(t.effect, summary, rec) for t, summary in zip(d.trials, parameters)]
     for t, summary in zip(d.trials, parameters):
-        params = _estimates(summary)
+        params = _estimates(summary) or _fixed_words(t)
         verdict = ("added, then dropped after the damping re-check" if t.dropped else
                    "added" if t.added else "not added: " + _refusal(t, d.trials))
         text.append(f"Round {t.round}, {label(t.effect, summary, rec)}: log Bayes factor {t.log_bayes_factor:.1f} +- "
@@ -827,16 +886,30 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
 
 
 def _stand_in_sentence(effect: str, verdict: dict) -> str:
-    low, high = verdict["allowed"]
     return (f"Stand-in, not a finding: {effect}'s {verdict['parameter']} = {verdict['median']:.4g} {verdict['unit']} "
-            f"(posterior median) lies outside the {low:.4g} to {high:.4g} {verdict['unit']} the set-up allows "
-            f"({verdict['why']}): {effect} stands in for a structural mismatch the catalogue cannot name.")
+            f"{stand_in_clause(verdict)} ({verdict['why']}): {effect} stands in for a structural mismatch the "
+            f"catalogue cannot name.")
+
+
+def stand_in_clause(verdict: dict) -> str:
+    """What rules a stand-in's value out, in words: outside the range the set-up allows, or (no
+    range: mains pickup) no persistent line at its harmonics."""
+    if verdict["allowed"] is None:
+        return "(fixed) has no persistent line at any of its harmonics in the record"
+    low, high = verdict["allowed"]
+    return (f"(posterior median) lies outside the {low:.4g} to {high:.4g} {verdict['unit']} the set-up allows")
 
 
 def _estimates(summary: dict) -> str:
     """Posterior summaries (name -> mean, q05, q95, unit) in words: 'k_theta = 3473 N m/rad (90 %: ...)'."""
     return ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
                      for k, v in summary.items())
+
+
+def _fixed_words(trial: Trial) -> str:
+    """The added effect's parameters the fit held fixed (mains pickup's f_mains), in words."""
+    effect = next(e for e in trial.result.problem.model.effects if e.name == trial.effect)
+    return ", ".join(f"{k} = {v:.4g} {effect.units[k]} (fixed)" for k, v in effect.defaults.items())
 
 
 def _refusal(trial: Trial, trials: list) -> str:

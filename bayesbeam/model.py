@@ -24,7 +24,7 @@ from scipy import fft, linalg
 from bayesbeam.io import Recording
 from bayesbeam.physics import effects as effect_catalogue
 from bayesbeam.physics.assembly import BeamOperators
-from bayesbeam.physics.basis import SplineBasis
+from bayesbeam.physics.basis import SplineBasis, combined_root
 from bayesbeam.physics.effects import Setup
 from bayesbeam.physics.mechanisms import PRESETS, resolve
 from bayesbeam.response.linear import (
@@ -109,10 +109,22 @@ def _check_nonlinear(model) -> None:
         raise ValueError(f"{nonlinear[0]}: free_decay recordings cannot be simulated with a nonlinear effect: "
                          "the unknown state at `start` does not enter the response linearly; use a force or "
                          "release recording")
+    extending = [e.name for e in model.effects if e.extends]
+    if extending:
+        raise ValueError(f"{nonlinear[0]} cannot be combined with {', '.join(extending)}: the nonlinear integrator "
+                         "acts on the beam's degrees of freedom alone, not on an attached body's own")
     memory = [m.name for m in model.mechanisms if m.hereditary]
     if memory:
         raise ValueError(f"{nonlinear[0]} cannot be combined with a memory mechanism ({', '.join(memory)}): "
                          "the nonlinear integrator needs a state-space model")
+
+
+def padded(a: np.ndarray | None, size: int) -> np.ndarray | None:
+    """Rows (or a vector) on the beam's degrees of freedom, extended by zeros to ``size``: the
+    sensors, the load and the memory term do not act on an effect's own degrees of freedom."""
+    if a is None or a.shape[-1] == size:
+        return a
+    return np.pad(a, [(0, 0)] * (a.ndim - 1) + [(0, size - a.shape[-1])])
 
 
 def _check_requirements(model) -> None:
@@ -174,7 +186,7 @@ class BeamModel:
         _check_requirements(self)
         self.n_intervals, self.degree = int(n_intervals), int(degree)
         beam, tip = recording.beam, recording.tip
-        root = "pinned" if any(e.root == "pinned" for e in self.effects) else "clamped"
+        root = combined_root(e.root for e in self.effects)     # a spring and a base together: "free"
         self.ops = BeamOperators(SplineBasis(beam.length, self.n_intervals, root, self.degree), beam.rho_a,
                                  tip.mass, tip.rotary_inertia)
         exc = recording.excitation
@@ -354,12 +366,28 @@ class BeamModel:
         """:meth:`system` at values already checked by :meth:`values`."""
         damping, relaxation = self._damping(v)
         mass, stiffness, modes = self._mass_stiffness(v)
+        memory = self.operators(v).K0 if relaxation else None
+        if self._extends:
+            mass, damping, stiffness, memory = self._extended(v, mass, damping, stiffness, memory)
+            modes = None
         reference = self._reference(v) if modes is None and self._departures is not None else None
-        system = SecondOrderSystem(mass, damping, stiffness, relaxation,
-                                   self.operators(v).K0 if relaxation else None, modes, self._departures, reference)
+        system = SecondOrderSystem(mass, damping, stiffness, relaxation, memory, modes, self._departures, reference)
         if relaxation is not None:
             system.check_stable()
         return system
+
+    @cached_property
+    def _extends(self) -> bool:
+        """Whether some effect brings degrees of freedom of its own (:meth:`Effect.extend`)."""
+        return any(e.extends for e in self.effects)
+
+    def _extended(self, v: dict[str, float], mass, damping, stiffness, memory):
+        """The matrices with every effect's own degrees of freedom appended (:meth:`Effect.extend`),
+        and the memory term's matrix padded to their size: hysteresis acts on the beam's strain alone."""
+        ops, setup = self.operators(v), self._setup_at(v)
+        for e in self.effects:
+            mass, damping, stiffness = e.extend(ops, v, setup, mass, damping, stiffness)
+        return mass, damping, stiffness, None if memory is None else padded(padded(memory, len(mass)).T, len(mass))
 
     def _damping(self, v: dict[str, float]):
         """The mechanisms' and effects' summed damping matrix and the relaxation transform (None
@@ -441,12 +469,13 @@ class BeamModel:
         found once, with every effect at unit values. None when some mechanism's damping is not
         a combination of M_0 and K_0 (then the bare modes do not diagonalise it), when nothing
         departs, when the rank exceeds what the ``low_rank`` form takes (an axial load's
-        geometric stiffness has full rank), when an effect's matrices move with a fitted sensor
+        geometric stiffness has full rank), when an effect brings degrees of freedom of its own
+        (the system is then larger than the beam), when an effect's matrices move with a fitted sensor
         position (the sensor's own mass), or a stated sensor mass does: then the directions change
         with the parameters, or when the length is fitted: the reference beam's modes would change
         with it.
         """
-        if (not all(m.bare_modal for m in self.mechanisms) or self.fits_length
+        if (not all(m.bare_modal for m in self.mechanisms) or self.fits_length or self._extends
                 or self._effects_follow_sensors or self._mass_follows_sensors):
             return None
         ops, unit = self.ops, self._unit_values
@@ -554,7 +583,7 @@ class BeamModel:
     def _placed_transfer(self, system: SecondOrderSystem, values: dict[str, float]):
         """(the transfer function on the grid, a release's static offset (n_sensors,) or None) at
         values checked by :meth:`values`, with the sensors and the load placed once for both."""
-        rows, load = self.placement(values)[0], self.load_at(values)
+        rows, load = padded(self.placement(values)[0], system.size), padded(self.load_at(values), system.size)
         exc = self.recording.excitation
         static = static_offset(system, rows, self.orders, load, exc.tip_load) if exc.kind == "release" else None
         return transfer(system, self.grid, rows, load), static
@@ -682,7 +711,7 @@ class BeamModel:
         tau, mask = self.recording.time[samples] - self.recording.excitation.start, self.fit_mask[samples]
         waves = np.exp(np.outer(np.where(mask, tau, 0.0), poles))
         waves[~mask] = 0.0
-        shown = (self.placement(values)[0] @ shapes) * poles[None, :] ** self.orders[:, None]
+        shown = (padded(self.placement(values)[0], system.size) @ shapes) * poles[None, :] ** self.orders[:, None]
         delay = self._delay(values)
         gain = shown * np.exp(-poles * delay)[None, :]
         chain = self.channel_response(values, poles)

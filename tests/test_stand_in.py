@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesbeam.diagnosis import Diagnosis, Trial, _trial_entry, paragraph, stand_in
+from bayesbeam.diagnosis import STAND_IN_WHY, Diagnosis, Trial, _trial_entry, paragraph, stand_in
 from bayesbeam.io import Sensor, TipBody
 from tests.inference import cases
 
@@ -179,3 +179,108 @@ def test_an_effect_given_with_the_baseline_is_judged_by_the_same_rule(median, ex
     summary = {"baseline": {**model, "model": "q1+sensor_mass"}, "unexplained": False, "candidates": [],
                "final": {**model, "model": "q1+sensor_mass"}, "given_stand_ins": verdicts}
     assert ("Not a finding: sensor_mass is a stand-in" in lead(summary)[0]) == expected
+
+
+def _base(f_b: float, m_b: float) -> dict:
+    return {**summary("f_b", f_b, "Hz"), **summary("m_b", m_b, "kg"), **summary("zeta_b", 0.02, "-")}
+
+
+@pytest.mark.parametrize(("f_b", "mass_factor", "expected"), [(40.0, 2.0, None), (0.99, 2.0, None), (1.01, 2.0, "f_b"),
+                                                               (40.0, 0.99e4, None), (40.0, 1.01e4, "m_b")])
+def test_a_base_far_above_the_band_or_far_heavier_than_the_beam_is_a_stand_in(f_b, mass_factor, expected):
+    """The recording samples at 512 Hz: a base resonance 1 % inside ten times the Nyquist frequency
+    (f_b given here as a fraction of 2560 Hz where below 2) is a support, 1 % beyond it a stand-in;
+    so is a base 1 % over 1e4 times the mass beyond the clamp (rho A l + m_T), not one 1 % under."""
+    rec = recording()
+    frequency = f_b * 10 * 256.0 if f_b < 2 else f_b
+    mass = mass_factor * (rec.beam.rho_a * rec.beam.length + rec.tip.mass)
+    verdict = stand_in("base_support", _base(frequency, mass), rec)
+    assert (verdict and verdict["parameter"]) == expected
+
+
+def test_a_base_the_data_do_not_need_is_no_stand_in():
+    """Unneeded, f_b's posterior reaches the prior's top, where the effect vanishes (1e4 f_1): its
+    upper 5 % point within a factor 2 of that is no stand-in, however far above the band the median."""
+    from bayesbeam.physics.effects.base_support import ABSENT_RATIO, fundamental
+
+    rec = recording()
+    top = ABSENT_RATIO * fundamental(rec.beam)
+    assert stand_in("base_support", _base(0.5 * top / 1.1, 3.0), rec) is None           # q95 = 1.1 q50
+    assert stand_in("base_support", _base(0.4 * top / 1.1, 3.0), rec)["parameter"] == "f_b"
+
+
+# ---------------------------------------------------------------------------- mains pickup
+def mains_record(case: str):
+    """Reference-simulator records (tests/checks/test_mains_signature.py): "mains" with a 50 Hz line
+    20 dB above the noise floor, "null" with none, "mode" with only a decaying 50 Hz mode."""
+    from tests.checks.test_mains_signature import recording as reference_recording
+
+    return reference_recording(case)
+
+
+@pytest.mark.parametrize(("case", "median", "expected"), [("mains", None, False), ("null", None, True),
+                                                          ("mode", None, True), ("mains", 60.0, True)])
+def test_mains_pickup_without_a_persistent_line_at_its_harmonics_is_a_stand_in(case, median, expected):
+    """A persistent 50 Hz line (bayesbeam check finds it) makes a fitted mains_lines at the nominal
+    f_mains (50 Hz: not sampled, so absent from the posterior summary) pickup; no line, or only a
+    mode at 50 Hz that decays, or f_mains = 60 Hz (harmonics 60, 120, 180 Hz) against the 50 Hz
+    line, makes it a stand-in: its sinusoids absorb a mode or a transient."""
+    parameters = {} if median is None else summary("f_mains", median, "Hz")
+    verdict = stand_in("mains_lines", parameters, mains_record(case))
+    assert (verdict is not None) == expected
+    if expected:
+        assert verdict == {"parameter": "f_mains", "median": median or 50.0, "allowed": None, "unit": "Hz",
+                           "why": STAND_IN_WHY["mains_lines"]}
+
+
+def _mains_diagnosis(rec):
+    """q1 + mains_lines added to ``rec``: nothing sampled of the effect (f_mains fixed at 50 Hz)."""
+    effect = SimpleNamespace(name="mains_lines", parameters=("f_mains",), defaults={"f_mains": 50.0},
+                             units={"f_mains": "Hz"})
+    result = SimpleNamespace(name="q1+mains_lines", evidence=SimpleNamespace(log_z=400.0, log_z_sd=0.1),
+                             problem=SimpleNamespace(model=SimpleNamespace(recording=rec, units={}, effects=[effect]),
+                                                     posterior=SimpleNamespace(names=())),
+                             values=lambda: np.zeros((2, 50, 0)))
+    trial = Trial(1, "mains_lines", result, _map(1.0), 300.0, 0.2, decisive=True, improved=True, added=True)
+    return Diagnosis(_result("q1", 100.0, rec), _map(2.0), [], [trial], result, trial.mismatch, None, 1.0)
+
+
+@pytest.mark.parametrize(("case", "words"), [
+    ("null", ("Stand-in, not a finding: mains_lines's f_mains = 50 Hz (fixed) has no persistent line at any of its "
+              "harmonics in the record")),
+    ("mains", "Missing physics found: mains_lines.")])
+def test_added_mains_pickup_is_reported_with_its_fixed_frequency(case, words):
+    """diagnosis.json's entry and the summary of an added mains_lines, whose f_mains is not sampled:
+    no posterior parameters, the fixed value in words, and the stand-in verdict of the record."""
+    from bayesbeam.report.diagnosis import lead
+
+    d = _mains_diagnosis(mains_record(case))
+    entry = _trial_entry(d.trials[0], None)
+    assert entry["parameters"] == {} and (entry["stand_in"] is not None) == (case == "null")
+    text = paragraph(d, [entry["parameters"]])
+    assert "f_mains = 50 Hz (fixed): added" in text and words in text
+    model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 400.0}
+    report = {"baseline": {**model, "model": "q1"}, "unexplained": False, "candidates": [entry],
+              "final": {**model, "model": "q1+mains_lines", "parameters": {}}}
+    first = lead(report)[0]
+    assert ("mains_lines is a stand-in" in first) == (case == "null") and ", ." not in first
+
+
+def test_a_diagnosis_adds_pickup_the_map_calls_not_beam_physics_and_it_is_no_stand_in():
+    """test_discrepancy's "mains" record (a 50 Hz line of the noise sd on a beam that decays within
+    the record, so the map labels the line "not beam physics" and flags nothing else): the screen
+    supports mains_lines, the diagnosis fits q1+mains_lines with f_mains fixed (nothing of it
+    sampled) and adds it by the decisive rule (ln B 34 nats against 5 + 3 sd), and the record's
+    persistent line makes it pickup, not a stand-in."""
+    from dataclasses import replace as changed
+
+    from bayesbeam.diagnosis import diagnose
+    from tests.checks.test_discrepancy import recording as discrepancy_recording
+    from tests.diagnosis_cases import REFERENCE_CONFIG
+
+    d = diagnose(discrepancy_recording("mains"), model="q1", config=changed(REFERENCE_CONFIG, catalogue=("mains_lines",)))
+    assert not [r for r in d.baseline_mismatch.regions if r["beam_physics"]]
+    assert d.added == ["mains_lines"]
+    entry = d.to_dict()["candidates"][0]
+    assert entry["parameters"] == {} and entry["stand_in"] is None and entry["signature"]["supported"]
+    assert "f_mains = 50 Hz (fixed): added" in d.to_dict()["summary"]

@@ -598,6 +598,8 @@ def latent_force(lik, params: dict, noise: dict) -> dict:
         return {}
     _, _, z, psi, s2 = lik._latent(params)
     coef = _marginal(z, psi, s2, lik.variance(noise))[1]
+    k = lik.force_noise.size                # the force's latent terms come first (then any effect's)
+    psi, coef, s2 = psi[..., :k], coef[:k], s2[:k]
     chi2 = float(np.sum(coef**2 / s2))
     # the force's slope at the kept recorded samples, which lie between a decimated record's
     slope = np.gradient(lik.model.force, lik.model.recording.dt)

@@ -65,9 +65,13 @@ from functools import cached_property
 import numpy as np
 from scipy import linalg, signal
 
+from bayesbeam.physics.effects import Effect
 from bayesbeam.response.signals import ForceNoise
 
 NOISE_MODELS = ("white", "ar1")
+#: a latent amplitude's prior sd gives its column this many times the data's RMS (the one wide
+#: rule of the free-decay amplitudes and the effects' columns, the same for every model)
+LATENT_PRIOR_FACTOR = 10.0
 
 
 @dataclass(frozen=True)
@@ -221,6 +225,7 @@ class Likelihood:
         self.force_noise = force_noise if force_noise is not None and force_noise.size else None
         if self.force_noise is not None and rec.excitation.kind != "force":
             raise ValueError("force noise applies to recordings with a measured force only")
+        self._effect_terms_at = None        # (the effects' own values, their latent terms) last built
 
     @cached_property
     def noise_names(self) -> tuple[str, ...]:
@@ -254,9 +259,14 @@ class Likelihood:
     # ------------------------------------------------------------------ evaluation
     @property
     def latent(self) -> bool:
-        """True when the likelihood marginalises linear latent terms (free-decay amplitudes or
-        force noise)."""
-        return self.free_decay or self.force_noise is not None
+        """True when the likelihood marginalises linear latent terms (free-decay amplitudes, force
+        noise or an effect's columns such as mains pickup)."""
+        return self.free_decay or self.force_noise is not None or bool(self._column_effects)
+
+    @cached_property
+    def _column_effects(self) -> tuple:
+        """The model's effects that add latent columns to the response channels (mains pickup)."""
+        return tuple(e for e in self.model.effects if type(e).latent_columns is not Effect.latent_columns)
 
     def residual(self, params: dict) -> np.ndarray:
         """Band coordinates of data minus model (forced or released recordings; no latent
@@ -306,7 +316,7 @@ class Likelihood:
         """
         if len(params) != len(noises):
             raise ValueError(f"{len(params)} parameter sets but {len(noises)} noise sets")
-        if self.free_decay or not self.model.batches:
+        if self.free_decay or not self.model.batches or not self._shared_effect_values(params):
             return np.array([self.log_likelihood(p, n) for p, n in zip(params, noises)], dtype=float)
         v = np.stack([self.variance(n) for n in noises]) if len(noises) else np.empty((0,) + self.z_data.shape)
         size = self.batch_size
@@ -325,18 +335,40 @@ class Likelihood:
         per_set = 16 * c * (3 * columns + 4 * self.model.grid.n_fft + inputs)
         return max(1, (1 << 25) // per_set)
 
+    def _shared_effect_values(self, params: Sequence[dict]) -> bool:
+        """Whether the sets agree on the column effects' own parameters (the batch path builds their
+        columns once; they are fixed defaults unless a caller sets them)."""
+        names = [p for e in self._column_effects for p in e.parameters]
+        return all(q.get(n) == params[0].get(n) for q in params for n in names) if params else True
+
     def _batch(self, params: Sequence[dict], v: np.ndarray) -> np.ndarray:
         """:meth:`log_likelihoods` of one chunk; ``v`` (P, D, c) the noise variances."""
         return self._densities(*self._band_residuals(params), v)
 
-    def _densities(self, z: np.ndarray, psi: np.ndarray | None, v: np.ndarray) -> np.ndarray:
-        """The log likelihood of each set from its band residuals ``z`` (P, D, c) and latent columns
-        ``psi`` (:meth:`_band_residuals`) at noise variances ``v`` (P, D, c): (P,)."""
+    def _densities(self, z: np.ndarray, psi: np.ndarray | None, s2: np.ndarray | None, v: np.ndarray) -> np.ndarray:
+        """The log likelihood of each set from its band residuals ``z`` (P, D, c), latent columns
+        ``psi`` and their prior variances ``s2`` (:meth:`_band_residuals`) at noise variances ``v``
+        (P, D, c): (P,)."""
         if psi is None:
             return -0.5 * np.sum(np.log(2 * np.pi * v) + z**2 / v, axis=(1, 2))
-        return _marginal_batch(z, psi, self.force_noise.variance, v)
+        return _marginal_batch(z, psi, s2, v)
 
-    def _band_residuals(self, params: Sequence[dict]) -> tuple[np.ndarray, np.ndarray | None]:
+    def _band_residuals(self, params: Sequence[dict]):
+        """Band coordinates of data minus model for each set, (P, D, c), of the latent columns,
+        (J, P, c, D), and their prior variances (J,): the force noise's, then the effects' (the
+        columns None without latent terms)."""
+        z, psi = self._model_band_residuals(params)
+        s2 = None if psi is None else self.force_noise.variance
+        if not self._column_effects:
+            return z, psi, s2
+        _, projected, own_s2 = self._effect_latent(params[0])                            # (D, c, J)
+        columns = np.broadcast_to(projected.transpose(2, 1, 0)[:, None],
+                                  (projected.shape[2], len(params)) + projected.shape[1::-1])
+        if psi is None:
+            return z, columns, own_s2
+        return z, np.concatenate([psi, columns]), np.concatenate([s2, own_s2])
+
+    def _model_band_residuals(self, params: Sequence[dict]) -> tuple[np.ndarray, np.ndarray | None]:
         """Band coordinates of data minus model for each set, (P, D, c), and of the force noise's
         latent columns, (J, P, c, D) (None without force noise)."""
         proj = self.projection
@@ -366,9 +398,9 @@ class Likelihood:
         evaluation per set serves both. Needs :attr:`profiles_in_batches`."""
         variances, values = [], []
         for i in range(0, len(params), self.batch_size):
-            z, psi = self._band_residuals(params[i:i + self.batch_size])
-            v = clip(np.mean(z**2, axis=1) if psi is None else _profiled_variance_batch(z, psi, self.force_noise.variance))
-            values.append(self._densities(z, psi, np.broadcast_to(v[:, None], z.shape)))
+            z, psi, s2 = self._band_residuals(params[i:i + self.batch_size])
+            v = clip(np.mean(z**2, axis=1) if psi is None else _profiled_variance_batch(z, psi, s2))
+            values.append(self._densities(z, psi, s2, np.broadcast_to(v[:, None], z.shape)))
             variances.append(v)
         return np.concatenate(variances), np.concatenate(values)
 
@@ -418,7 +450,19 @@ class Likelihood:
         return self._remembered(f"latent, whole={whole}", params, lambda: self._latent_terms(params, whole))
 
     def _latent_terms(self, params, whole: bool):
-        """:meth:`_latent`, computed."""
+        """:meth:`_latent`, computed: the model's latent terms, then the effects' columns."""
+        y, basis, z, psi, s2 = self._model_latent_terms(params, whole)
+        if not self._column_effects:
+            return y, basis, z, psi, s2
+        columns, projected, own_s2 = self._effect_latent(params)
+        if not whole and self.free_decay:
+            columns = columns[self.projection.window]
+        return (y, np.concatenate([basis, columns], axis=2), z, np.concatenate([psi, projected], axis=2),
+                np.concatenate([s2, own_s2]))
+
+    def _model_latent_terms(self, params, whole: bool):
+        """The free decay's or the force noise's latent terms (:meth:`_latent`); none (J = 0)
+        for a forced or released recording with a clean force channel."""
         if self.free_decay:
             basis = self.model.free_decay_basis(params, slice(None) if whole else self.projection.window)
             psi = self.projection.project(basis) if whole else self.projection.project_window(basis)
@@ -428,14 +472,44 @@ class Likelihood:
             # RMS 0 or denormal) drops out of the marginal instead of carrying an infinite variance.
             col_rms = np.sqrt(np.mean(psi**2, axis=(0, 1)))
             scale = np.where(col_rms > np.finfo(float).tiny, col_rms, np.inf)
-            s2 = np.full(col_rms.size, (10.0 * self._data_rms) ** 2)
+            s2 = np.full(col_rms.size, (LATENT_PRIOR_FACTOR * self._data_rms) ** 2)
             return np.zeros(basis.shape[:2]), basis / scale, self.z_data, psi / scale, s2
+        if self.force_noise is None:
+            y = self.model.simulate(params)
+            n, c = y.shape
+            return y, np.zeros((n, c, 0)), self.z_data - self.projection.project(y), np.zeros(self.z_data.shape + (0,)), np.zeros(0)
         if self.force_noise.mixing is None:
             y, basis = self.model.simulate_with_impulses(params, self.force_noise.index)
         else:
             y, basis = self.model.simulate_with_inputs(params, self._input_spectra)
         z = self.z_data - self.projection.project(y)
         return y, basis, z, self.projection.project(basis), self.force_noise.variance
+
+    def _effect_latent(self, params) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The column effects' latent terms at their values in ``params``: columns in time
+        (n_samples, c, J), in band coordinates (D, c, J), prior variances (J,). Built once per
+        value of the effects' own parameters (mains pickup's are fixed): the columns do not
+        depend on the beam's."""
+        values = self.model.values(params)
+        key = tuple(values[p] for e in self._column_effects for p in e.parameters)
+        if self._effect_terms_at is None or self._effect_terms_at[0] != key:
+            self._effect_terms_at = (key, self._effect_terms(values))
+        return self._effect_terms_at[1]
+
+    def _effect_terms(self, values) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`_effect_latent`, computed. The prior is the free decay's wide rule read per
+        channel (each column moves one channel): amplitude sd 10 x the RMS of its channel's band
+        coordinates of the data over the column's RMS there, so that evidences with and without
+        the effect stay comparable and no model chooses its own prior width."""
+        rec, proj = self.model.recording, self.projection
+        columns = np.concatenate([e.latent_columns(rec.time, values, len(self.channels), proj.max_frequency)
+                                  for e in self._column_effects], axis=2)
+        projected = proj.project(columns)
+        channel = np.argmax(np.sum(projected**2, axis=0), axis=0)                       # (J,)
+        col_rms = np.sqrt(np.mean(projected[:, channel, np.arange(channel.size)] ** 2, axis=0))
+        data_rms = np.sqrt(np.mean(self.z_data**2, axis=0))[channel]
+        scale = np.where(col_rms > np.finfo(float).tiny, col_rms, np.inf)
+        return columns / scale, projected / scale, (LATENT_PRIOR_FACTOR * data_rms) ** 2
 
     @cached_property
     def _input_spectra(self) -> np.ndarray:

@@ -26,7 +26,14 @@ c_e            N m^2 s         log-uniform [1e-10, 1e-1]                   as cd
 mu             1/s             log-uniform [1, 1e5]                        relaxation rate
 zener_scale    -               log-normal, median 1, sd(log) 0.5           Zener's prediction
 c_theta        N m s/rad       log-uniform [1e-6, 10] EI_0/l (x 1 s)       root dashpot
+f_b            Hz              log-uniform [0.1, 1e4] f_1                  base's frequency
+m_b            kg              log-uniform [0.1, 100] rho A l              base's mass
+zeta_b         -               log-uniform [1e-3, 0.3]                     base's damping ratio
 f_hp           Hz              log-uniform [0.01, 5]                       AC coupling (***)
+f_a            Hz              log-uniform [0.01, 1e4] f_1                 attached body's frequency (****)
+m_a            kg              log-uniform [1e-3, 1] rho A l               attached body's mass
+zeta_a         -               log-uniform [1e-3, 0.3]                     its link's damping ratio
+x_a            m               uniform [0, l]                              where it is attached
 g, g_<s>       -               normal, mean 0, sd 0.02                     channel gain (***)
 sigma_<s>      sensor units    log-uniform [1e-6, 10] x channel RMS        noise sd per channel
 phi_<s>        -               uniform [-0.99, 0.99]                       AR(1) coefficient
@@ -35,7 +42,8 @@ dx_<s>         m               uniform [-t_s, t_s], on the beam            senso
 dx_hammer      m               uniform [-t_h, t_h], on the beam            hammer offset (**)
 =============  ==============  ==========================================  ======================
 
-P_cr = pi^2 EI_0 / (4 l^2) is the cantilever's Euler buckling load. Outside its support a prior
+P_cr = pi^2 EI_0 / (4 l^2) is the cantilever's Euler buckling load. f_1 = (1.8751)^2 sqrt(EI_0 / (rho A l^4))
+/ (2 pi) is the nominal clamped beam's fundamental (Hz, no tip body). Outside its support a prior
 returns -inf; it never raises inside the sampler.
 
 (*) The ``sensor_mass`` effect fits a mass at each sensor: m_s for a recording's only sensor,
@@ -70,6 +78,13 @@ The ``channel_gain`` effect's g (g_<s> per sensor of several) is normal about 0 
 sensor's ``gain_tolerance``, 0.02 where none is stated: a comparison calibration's uncertainty
 (ISO 16063-21, 1-2 % at k = 2). A normal, not a uniform, because a calibration's uncertainty is a
 standard deviation, not a bound.
+
+(****) The ``attachment`` effect's body (its own frequency f_a on its link, mass m_a, the link's
+damping ratio zeta_a, place x_a): m_a from a thousandth of the beam's mass (a cable clamp on a light
+beam) to the beam's own (a shaker's armature on a thin strip); f_a from a hundredth of the beam's
+fundamental, where the body hangs free of the beam and the effect vanishes, to 1e4 f_1, where it
+rides along as a point mass (the base's top, and for the same reason); zeta_a as the base's, from
+a metal stinger to a soft pad; x_a anywhere on the span.
 
 Why the literature mechanisms' priors: a fractional Kelvin-Voigt beam's loss factor is about
 (c_f/EI) omega^nu sin(nu pi/2), so c_f/EI_0 in [1e-8, 1] spans loss factors of 1e-8 to 1 at 1 rad/s
@@ -112,6 +127,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from bayesbeam.model import HAMMER_OFFSET, LENGTH, SENSOR_OFFSET
+from bayesbeam.physics.effects.attachment import ABSENT_RATIO as ATTACHMENT_RATIO
+from bayesbeam.physics.effects.attachment import MASS_RANGE as ATTACHMENT_MASS
+from bayesbeam.physics.effects.base_support import ABSENT_RATIO, DAMPING_RANGE, MASS_RANGE, fundamental
 from bayesbeam.physics.effects.channel_gain import PER_SENSOR as PER_GAIN
 from bayesbeam.physics.effects.channel_gain import SINGLE as GAIN
 from bayesbeam.physics.effects.channel_gain import gain_names
@@ -223,7 +241,14 @@ DEFAULTS: dict[str, tuple[str, tuple[float, str], tuple[float, str]]] = {
     "mu": ("loguniform", (1.0, ""), (1e5, "")),
     "zener_scale": ("lognormal", (1.0, ""), (0.5, "")),
     "c_theta": ("loguniform", (1e-6, "EI_0/l"), (10.0, "EI_0/l")),
+    "f_b": ("loguniform", (0.1, "f_1"), (ABSENT_RATIO, "f_1")),
+    "m_b": ("loguniform", (MASS_RANGE[0], "rho A l"), (MASS_RANGE[1], "rho A l")),
+    "zeta_b": ("loguniform", (DAMPING_RANGE[0], ""), (DAMPING_RANGE[1], "")),
     "f_hp": ("loguniform", (0.01, ""), (5.0, "")),
+    "f_a": ("loguniform", (ATTACHMENT_RATIO, "f_1"), (ABSENT_RATIO, "f_1")),
+    "m_a": ("loguniform", (ATTACHMENT_MASS[0], "rho A l"), (ATTACHMENT_MASS[1], "rho A l")),
+    "zeta_a": ("loguniform", (DAMPING_RANGE[0], ""), (DAMPING_RANGE[1], "")),
+    "x_a": ("uniform", (0.0, "l"), (1.0, "l")),
     GAIN: ("normal", (0.0, ""), (DEFAULT_GAIN_TOLERANCE, "")),
 }
 #: the noise parameters' defaults, per channel <s>: sigma_<s> scales with the channel's RMS
@@ -240,6 +265,7 @@ SCALES = {
     "EI_0/l": lambda beam: beam.nominal_EI / beam.length,
     "rho A l": lambda beam: beam.rho_a * beam.length,
     "P_cr": lambda beam: np.pi**2 * beam.nominal_EI / (4 * beam.length**2),
+    "f_1": fundamental,
 }
 
 

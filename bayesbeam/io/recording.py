@@ -70,7 +70,7 @@ _RECORDING_KEYS = ("file", "time_column")
 _EXPORT_KEYS = ("delimiter", "decimal", "sample_rate", "skip_lines")
 #: keys of [[sensor]] and of a force's [excitation] that say how the channel's values become SI
 _UNIT_KEYS = ("unit", "sensitivity", "scale")
-_KNOWN_TABLES = ("beam", "tip", "excitation", "sensor", "recording")
+_KNOWN_TABLES = ("beam", "tip", "excitation", "sensor", "recording", "setup")
 
 # What each key holds, for the "Fix:" sentences.
 _MEANING = {
@@ -110,6 +110,7 @@ _MEANING = {
     "high_pass_hz": "the sensor's low-frequency corner in Hz from its data sheet (leave it out for a DC-coupled "
                     "sensor)",
     "gain_tolerance": "the sensitivity's calibration uncertainty as a fraction, e.g. 0.02",
+    "mains_hz": "the mains frequency in Hz where the test ran, 50 or 60",
 }
 
 # Optional keys inside the format's own tables that state what is known about the set-up
@@ -117,7 +118,7 @@ _MEANING = {
 # they are kept verbatim at load (Recording.setup_keys) and checked when read (Recording.setup).
 _SETUP_KEYS = {"beam": ("length_tolerance",), "tip": ("mass_tolerance", "rotary_inertia_tolerance"),
                "sensor": ("mass", "location_tolerance", "high_pass_hz", "gain_tolerance"),
-               "excitation": ("location_tolerance",)}
+               "excitation": ("location_tolerance",), "setup": ("mains_hz",)}
 
 # The optional [material] table (docs/format.md): what the thermoelastic damping mechanism
 # predicts its damping from. Named materials supply handbook values of the three constants
@@ -194,7 +195,8 @@ class SetUp:
     sensor's stated low-frequency corner (Hz), gain_tolerances: its stated calibration uncertainty
     (a fraction); None where not stated.
     excitation_location_tolerance: the hammer of a force recording hit within its location +- this
-    (m); hammer_location: its stated location (m; None unless a force recording). A tolerance of 0
+    (m); hammer_location: its stated location (m; None unless a force recording). mains_hz: the
+    mains frequency where the test ran (Hz; None where not stated). A tolerance of 0
     means the value is taken as stated. sensors: the recording's sensors the per-sensor entries
     refer to (their names and stated locations; not compared by ``==``, which compares what is
     stated about them).
@@ -210,6 +212,7 @@ class SetUp:
     sensors: tuple[Sensor, ...] = field(default=(), compare=False)
     excitation_location_tolerance: float = 0.0
     hammer_location: float | None = field(default=None, compare=False)
+    mains_hz: float | None = None
 
     @property
     def stated_mass(self) -> float:
@@ -391,6 +394,7 @@ def load_recording(path: str | os.PathLike) -> Recording:
     sensors = _read_sensors(doc, toml_path, beam.length)
     scalings = _read_scalings(doc, toml_path, excitation, sensors)
     source = _read_recording_table(doc, toml_path)
+    _warn_unused(_table(doc, "setup", toml_path, required=False), _SETUP_KEYS["setup"], "[setup]", toml_path)
     _check_distinct_columns(toml_path, _claims(excitation, sensors, source.time_column or DEFAULT_TIME_COLUMN))
     table, stated_rate = _read_data(toml_path.parent / source.file, source)
     cells = _resolve_columns(toml_path, table, excitation, sensors, source, stated_rate)
@@ -609,7 +613,7 @@ def _stated_setup(doc: dict) -> dict:
     """The set-up keys of beam.toml's [beam], [tip] and [[sensor]] tables, verbatim (only those
     present; one dict per sensor); the tables themselves have been checked."""
     stated = {}
-    for name in ("beam", "tip", "excitation"):
+    for name in ("beam", "tip", "excitation", "setup"):
         table = doc.get(name, {})
         if keys := {key: table[key] for key in _SETUP_KEYS[name] if key in table}:
             stated[name] = keys
@@ -644,6 +648,7 @@ def _read_setup(stated: dict, sensor_list: tuple[Sensor, ...], length: float, fi
         excitation_location_tolerance=_hammer_tolerance(stated.get("excitation", {}), sensor_list, sensors,
                                                         excitation, file),
         hammer_location=excitation.location if excitation is not None else None,
+        mains_hz=_stated_positive([stated.get("setup", {})], "mains_hz", ["[setup]"], file)[0],
     )
 
 
@@ -1220,6 +1225,8 @@ def _beam_toml(rec: Recording, time_column: str) -> str:
     lines += _toml_table(["beam"], {key: getattr(rec.beam, key) for key in _BEAM_KEYS} | stated.get("beam", {}))
     lines += _toml_table(["tip"], {key: getattr(rec.tip, key) for key in _TIP_KEYS} | stated.get("tip", {}))
     lines += _toml_table(["excitation"], _excitation_keys(rec.excitation) | stated.get("excitation", {}))
+    if stated.get("setup"):
+        lines += _toml_table(["setup"], stated["setup"])
     stated_sensors = [*stated.get("sensor", []), *[{}] * len(rec.sensors)]
     for sensor, stated_keys in zip(rec.sensors, stated_sensors):
         keys = {key: getattr(sensor, key) for key in _SENSOR_KEYS} | _written_unit(sensor, sensor.quantity)

@@ -24,6 +24,17 @@ paper's eq. (35). (The paper's printed modification formulas are garbled: its
 clamped basis plus :math:`\tilde B_0 - \tilde B_{p-1}`, which vanishes at 0 (the root splines
 are mirror images about x = 0) with a non-zero slope: :math:`N + p - 1` functions.
 
+*Sliding root* (:math:`u_x(0) = 0`, value free; used when the clamp sits on a translating base):
+the clamped basis plus the sum of the p root splines :math:`\tilde B_0 + \dots + \tilde B_{p-1}`,
+which is :math:`1 - \tilde B_p` on :math:`[0, h]` (the splines partition unity), and
+:math:`\tilde B_p` starts at x = 0 with value and slope 0: value 1 and slope 0 at the root,
+:math:`N + p - 1` functions. (The even :math:`\tilde B_0 + \tilde B_{p-1}` would do too, but
+its value is only 2/p!: 4e-4 at p = 7, a badly scaled degree of freedom.)
+
+*Free root* (neither fixed; a rotating clamp on a translating base): the clamped basis plus both,
+:math:`N + p` functions, the whole spline space. Each extra function is appended after the
+clamped ones (value-free last), so the clamped basis's columns keep their numbers.
+
 The free end is natural: all splines non-zero at :math:`x = l` are kept, so the free-end
 conditions (including damping moments) come out of the weak form.
 
@@ -39,11 +50,24 @@ from functools import cache, cached_property
 
 import numpy as np
 
-ROOTS = ("clamped", "pinned")
+ROOTS = ("clamped", "pinned", "sliding", "free")
+#: the root values each condition leaves free: the slope u_x(0), the value u(0)
+FREED = {"clamped": (), "pinned": ("slope",), "sliding": ("value",), "free": ("slope", "value")}
 #: admissible spline degrees: C^(p-1) splines are in H^2 for p >= 3; the mass matrix's condition
 #: number grows about 3000-fold per two degrees (1.4e3 at p = 3, 4.6e6 at p = 5, 3.7e10 at p = 7,
 #: N = 32), so the degrees stop at 9
 DEGREES = range(3, 10)
+
+
+def combined_root(roots) -> str:
+    """The root condition that frees every root value any of ``roots`` frees: a rotational spring
+    ("pinned") and a translating base ("sliding") together leave the root "free".
+
+    >>> combined_root(["pinned", "sliding"]), combined_root([])
+    ('free', 'clamped')
+    """
+    freed = {f for r in roots for f in FREED[r]}
+    return next(r for r in ROOTS if set(FREED[r]) == freed)
 
 
 def _local_pieces(t: np.ndarray, deriv: int, degree: int = 3) -> np.ndarray:
@@ -106,8 +130,8 @@ class SplineBasis:
         Beam length l (m).
     n_intervals : int
         Number of grid intervals N (the paper's approximation index).
-    root : {"clamped", "pinned"}
-        Essential conditions at x = 0: u = u_x = 0, or u = 0 only.
+    root : {"clamped", "pinned", "sliding", "free"}
+        Essential conditions at x = 0: u = u_x = 0, u = 0 only, u_x = 0 only, or none.
     degree : int
         Polynomial degree p of the splines, 3 (cubic, the paper's) to 9.
     """
@@ -135,8 +159,9 @@ class SplineBasis:
 
     @property
     def size(self) -> int:
-        """Number of basis functions (degrees of freedom): N + p - 2 clamped, N + p - 1 pinned."""
-        return self.n_intervals + self.degree - (2 if self.root == "clamped" else 1)
+        """Number of basis functions (degrees of freedom): N + p - 2 clamped, N + p - 1 pinned or
+        sliding, N + p free."""
+        return self.n_intervals + self.degree - 2 + len(FREED[self.root])
 
     @property
     def pieces(self) -> int:
@@ -155,8 +180,11 @@ class SplineBasis:
         c = np.zeros((n + p, self.size))
         c[:p, : p - 2] = _root_combination(p)
         c[p:, p - 2 : p - 2 + n] = np.eye(n)
-        if self.root == "pinned":
-            c[0, -1], c[p - 1, -1] = 1.0, -1.0
+        for col, freed in enumerate(FREED[self.root], start=p - 2 + n):
+            if freed == "slope":            # mirror images about x = 0: their difference is odd
+                c[0, col], c[p - 1, col] = 1.0, -1.0
+            else:                           # 1 near the root: value 1, slope 0
+                c[:p, col] = 1.0
         return c
 
     def standard(self, x, deriv: int = 0) -> np.ndarray:

@@ -17,7 +17,7 @@ from matplotlib.patches import Rectangle
 
 from bayesbeam.checks.discrepancy import share_words
 from bayesbeam.comparison import R_HAT_MAX, strength
-from bayesbeam.diagnosis import flags
+from bayesbeam.diagnosis import flags, stand_in_clause
 from bayesbeam.io.atomic import write_text
 from bayesbeam.report.comparison import WIDTH, rhat_text
 from bayesbeam.report.html import esc, figure, flag, h2, nav, number, page, table
@@ -123,9 +123,8 @@ def stand_ins(summary: dict) -> list[tuple[str, dict]]:
 
 def _stand_in_sentence(summary) -> str:
     return " ".join(
-        f"Not a finding: {effect} is a stand-in. Its {v['parameter']} = {v['median']:.4g} {v['unit']} (posterior "
-        f"median) lies outside the {v['allowed'][0]:.4g} to {v['allowed'][1]:.4g} {v['unit']} the set-up allows "
-        f"({v['why']}): it stands in for a structural mismatch the catalogue cannot name."
+        f"Not a finding: {effect} is a stand-in. Its {v['parameter']} = {v['median']:.4g} {v['unit']} "
+        f"{stand_in_clause(v)} ({v['why']}): it stands in for a structural mismatch the catalogue cannot name."
         for effect, v in stand_ins(summary))
 
 
@@ -134,8 +133,8 @@ def _found_sentence(summary) -> str:
     added = [c for c in summary["candidates"] if c["added"]]
     if added:
         final = summary["final"].get("parameters", {})
-        found = "; ".join(f"{_effect_words(c['effect'])} ({_named(c)}), "
-                          + ", ".join(_estimate(name, final.get(name, q)) for name, q in c["parameters"].items())
+        found = "; ".join(", ".join([f"{_effect_words(c['effect'])} ({_named(c)})"]
+                                    + [_estimate(name, final.get(name, q)) for name, q in c["parameters"].items()])
                           for c in added if not c.get("stand_in"))
         if found:
             return f"What the damping model {base} left out of this recording: {found}."
@@ -590,8 +589,11 @@ def _effect_section(d, summary) -> str:
                    "(marker and bar), estimated before the model was fitted; on a simulated recording (a "
                    "truth.json beside it) the true value (dotted).")
         name = _named(summary["candidates"][d.trials.index(t)])
-        out.append(f"<h3>{esc(name)} (round {t.round}, {esc(t.result.name)})</h3>"
-                   + figure(effect_posterior_plot(t, parameters, signature), f"posterior of {t.effect}", caption))
+        # an effect with nothing sampled (mains pickup: f_mains fixed, amplitudes marginalised) has no posterior to draw
+        shown = (figure(effect_posterior_plot(t, parameters, signature), f"posterior of {t.effect}", caption)
+                 if parameters else "<p>Its parameters are held fixed and its amplitudes marginalised: nothing "
+                 "sampled to show.</p>")
+        out.append(f"<h3>{esc(name)} (round {t.round}, {esc(t.result.name)})</h3>" + shown)
     if d.trials:
         out.append("<h3>Effect parameters of every augmented fit</h3>" + effect_table(d, summary))
     if d.recheck is not None and d.recheck.switched:

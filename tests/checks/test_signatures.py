@@ -78,23 +78,28 @@ CASES = [pytest.param(case, marks=pytest.mark.slow) if case in SLOW_CASES else c
 
 #: the measurement chain's candidates: they change what the sensors report, not the beam
 CHAIN = ("channel_gain", "high_pass", "measurement_delay")
+#: candidates whose one-parameter family holds part of another's pattern: the attached body, screened
+#: at the tip, is a spring to ground there while its own mode lies below the band (it stiffens the low
+#: modes most, as a tension does) and a point mass when its mode lies above (as a tip sensor's mass)
+MIMICS = ("attachment",)
 
 
 @pytest.mark.parametrize("case", CASES)
 def test_concealed_effect_ranks_first(case):
     """The concealed effect ranks first, supported and inside its prior, and explains more than
-    three times what any other beam effect does. A channel gain (the response's scale against the
-    measured force) takes up the amplitude part of any mismatch: measured, the concealed effect
-    explains 1.85 (tip friction) to 2.8 (root spring, sensor mass) times what the gain does, so
-    it must at least 1.5 times; the diagnosis fits the two leading candidates and their evidence
-    tells them apart (tests/acceptance/test_diagnose.py)."""
+    three times what any other beam effect does, but the attached body (:data:`MIMICS`). A channel
+    gain (the response's scale against the measured force) takes up the amplitude part of any
+    mismatch, and the body part of a tension's or a tip mass's: the concealed effect must explain at
+    least 1.5 times what any candidate does (measured: 1.6 times the body's on the tension, 1.85 to
+    2.8 times the gain's); the diagnosis fits the two leading candidates and their evidence tells
+    them apart (tests/acceptance/test_diagnose.py)."""
     result = ranking(case)
     best = result.candidates[0]
     print(f"{case}: {[(c.effect, round(c.delta_chi2, 1)) for c in result.candidates]}; "
           f"{best.parameter} = {best.value:.4g} (90 %: {best.interval_90}), truth {truth(case)}")
     assert best.effect == effect(case) and best.supported and best.within_prior
     assert result.best is best
-    beam = [c for c in result.candidates[1:] if c.effect not in CHAIN]
+    beam = [c for c in result.candidates[1:] if c.effect not in CHAIN + MIMICS]
     assert best.delta_chi2 > 3 * beam[0].delta_chi2
     assert best.delta_chi2 > 1.5 * result.candidates[1].delta_chi2
 
@@ -135,7 +140,8 @@ def test_effects_the_model_cannot_take_are_left_out_with_the_reason():
     draws = np.random.default_rng(1).multivariate_normal(optimum.theta, optimum.covariance, 200)
     result = rank_effects(post, draws, locate(post, draws, np.random.default_rng(2), REPLICATES))
     assert {c.effect for c in result.candidates} == {"root_compliance", "sensor_mass", "axial_load",
-                                                     "measurement_delay", "high_pass", "channel_gain"}
+                                                     "measurement_delay", "high_pass", "channel_gain", "base_support",
+                                                     "mains_lines", "attachment"}
     notes = " ".join(result.notes)
     for name in ("quadratic_drag", "dry_friction"):
         assert f"{name} not ranked: {name} cannot be combined with a memory mechanism" in notes
@@ -218,3 +224,23 @@ def test_a_concealed_coupling_ranks_first_and_is_sized():
     assert best.effect == "high_pass" and best.supported and best.within_prior
     assert best.delta_chi2 > 3 * result.candidates[1].delta_chi2
     assert 1 / 1.5 < best.value / CONCEALED_CORNER < 1.5
+
+
+#: a support resonance concealed in the reference recording (the reference's m_b kg, k_b N/m, c_b N s/m):
+#: a 2 kg base (twice the paper beam) at 40 Hz, between the clamped modes 2 and 3, damping ratio 3 %
+CONCEALED_BASE = (("m_b", 2.0), ("k_b", 2.0 * (2 * np.pi * 40.0) ** 2), ("c_b", 2 * 0.03 * 2.0 * 2 * np.pi * 40.0))
+
+
+def test_a_concealed_support_resonance_ranks_first():
+    """The reference simulator's recording on that base, q1 fitted without it: base_support ranks
+    first, supported, its Delta chi2 over 1.3 times the runner-up's, and the screen's f_b within a
+    factor 1.5 of 40 Hz. The screen holds m_b at 3.16 rho A l (3.2 kg), so it places the base where
+    that mass gives the coupled modes the data show, below the true f_b. Observed: f_b 31.6 Hz,
+    Delta chi2 10585 against root_compliance's 6412. It fails when the base's own mode shifts the
+    baseline's modes by one (features matched by index, not by nearest frequency: Delta chi2 0)."""
+    result = rank_effects(*fit_and_locate(reference(CONCEALED_BASE)[0]))
+    best = result.candidates[0]
+    print([(c.effect, round(c.delta_chi2, 1)) for c in result.candidates], best.value, best.interval_90)
+    assert best.effect == "base_support" and best.supported and best.within_prior
+    assert best.delta_chi2 > 1.3 * result.candidates[1].delta_chi2
+    assert 1 / 1.5 < best.value / 40.0 < 1.5

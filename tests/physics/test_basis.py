@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy import interpolate
 
-from bayesbeam.physics.basis import SplineBasis
+from bayesbeam.physics.basis import SplineBasis, combined_root
 from tests.physics.test_assembly import exact_clamped_free, exact_tip_body, galerkin_betas
 
 DEGREES = (3, 4, 5, 7)
@@ -113,6 +113,48 @@ def test_pinned_space_reproduces_linear_root_rotation(degree):
     assert np.abs(a @ coef - (0.3 * x + x**3)).max() < 1e-11
 
 
+@pytest.mark.parametrize("degree", DEGREES)
+@pytest.mark.parametrize("root, size, value_free, slope_free",
+                         [("sliding", 1, True, False), ("free", 2, True, True)])
+def test_sliding_and_free_roots_add_the_root_value(degree, root, size, value_free, slope_free):
+    """The sliding basis is the clamped one plus one function of value 1 and slope 0 at the root;
+    the free basis adds the pinned basis's slope function too (N + p functions, the whole spline
+    space). Round-off bounds as for the clamped root: 1e-14 of O(1) values, 1e-13 of O(1/h) slopes."""
+    basis = SplineBasis(1.0, 8, root=root, degree=degree)
+    assert basis.size == 8 + degree - 2 + size
+    clamped = SplineBasis(1.0, 8, degree=degree).size
+    values, slopes = basis.evaluate([0.0])[0], basis.evaluate([0.0], 1)[0] * basis.h
+    assert np.abs(values[:clamped]).max() < 1e-14 and np.abs(slopes[:clamped]).max() < 1e-13
+    assert values[-1] == pytest.approx(1.0, abs=1e-14) and abs(slopes[-1]) < 1e-13
+    if slope_free:
+        assert abs(values[-2]) < 1e-14 and abs(slopes[-2]) > 1e-3
+    assert np.linalg.matrix_rank(basis.combination) == basis.size
+
+
+@pytest.mark.parametrize("degree", [3, 5, 7])
+@pytest.mark.parametrize("root, poly", [("sliding", lambda x: 0.7 + x**2 - 0.4 * x**3),
+                                        ("free", lambda x: 0.7 - 0.3 * x + x**2 - 0.4 * x**3)])
+def test_sliding_and_free_spaces_reproduce_polynomials_with_their_root_values(degree, root, poly):
+    """Completeness: a cubic with a root value (and, free, a root slope) lies in the space, so least
+    squares reproduces it to round-off (1e-11 as for the clamped space); without the value-free
+    function it could not (the clamped space misses the constant by its full size)."""
+    basis = SplineBasis(1.0, 9, root=root, degree=degree)
+    x = np.linspace(0, 1.0, 97)
+    a = basis.evaluate(x)
+    coef, *_ = np.linalg.lstsq(a, poly(x), rcond=None)
+    assert np.abs(a @ coef - poly(x)).max() < 1e-11
+    clamped = SplineBasis(1.0, 9, degree=degree).evaluate(x)
+    coef, *_ = np.linalg.lstsq(clamped, poly(x), rcond=None)
+    assert np.abs(clamped @ coef - poly(x)).max() > 0.1
+
+
+def test_roots_combine_by_what_they_free():
+    assert combined_root([]) == "clamped"
+    assert combined_root(["pinned", "pinned"]) == "pinned"
+    assert combined_root(["sliding"]) == "sliding"
+    assert combined_root(["pinned", "sliding"]) == "free"
+
+
 @pytest.mark.parametrize("degree", [3, 5])
 def test_default_gauss_rule_is_exact_for_degree_2p_plus_1(degree):
     """p + 1 points per interval: exact for the mass form's degree 2p and one more."""
@@ -126,7 +168,7 @@ def test_refuses_bad_arguments():
     with pytest.raises(ValueError, match="n_intervals"):
         SplineBasis(1.0, 1)
     with pytest.raises(ValueError, match="root"):
-        SplineBasis(1.0, 4, root="free")
+        SplineBasis(1.0, 4, root="hinged")
     with pytest.raises(ValueError, match=r"\[0, 1.0\]"):
         SplineBasis(1.0, 4).evaluate([1.5])
     with pytest.raises(ValueError, match="degree"):

@@ -4,7 +4,8 @@ It shares nothing with :mod:`bayesbeam.physics`, :mod:`bayesbeam.response` or :m
 (only :mod:`bayesbeam.io`, to write the format):
 
 * space: Hermite cubic Euler-Bernoulli finite elements (:mod:`.fem`), 60 by default, clamped root
-  or root spring (with a root dashpot), tip body, sensor mass, axial load, Coulomb friction at the
+  or root spring (with a root dashpot), the clamp on a translating base (mass, spring, dashpot), tip body, sensor mass, an attached body on a spring and
+  dashpot (its own dof, :func:`.system.matrices`), axial load, Coulomb friction at the
   tip (:mod:`.friction`), the paper's four damping mechanisms and the literature's three
   (fractional, exponential relaxation, Zener's solid), and thermoelastic damping solved from the
   heat equation across the thickness (:mod:`.thermoelastic`);

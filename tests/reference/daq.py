@@ -70,3 +70,12 @@ def measurement_chain(fine: np.ndarray, h: float, f_hp: float = 0.0, gains=None)
         change = out - out[:1]
         out = change - signal.lfilter([b, 1 - a - b], [1.0, -a], change, axis=0)
     return out if gains is None else out * (1.0 + np.asarray(gains, dtype=float))
+
+
+def mains_pickup(t: np.ndarray, f_mains: float, amplitudes, phases) -> np.ndarray:
+    """Mains pickup at times ``t`` (s): sum_k A_k cos(2 pi k f_mains t + phi_k), k = 1, 2, ... over
+    ``amplitudes`` (A_k, the channel's unit) and ``phases`` (rad). Added where the channel is read,
+    after the beam: it passes the anti-alias filter unchanged (flat to 1e-5 below 0.40 fs), so it
+    may be sampled at the recorded instants directly."""
+    t = np.asarray(t, dtype=float)
+    return sum(a * np.cos(2 * np.pi * (k + 1) * f_mains * t + p) for k, (a, p) in enumerate(zip(amplitudes, phases)))

@@ -20,9 +20,11 @@ by Gauss-Legendre quadrature (exact for the polynomial integrands):
 * air: :math:`\gamma \int w_t \psi`;
 * spatial hysteresis: :math:`\tfrac12\iint h(x,\xi)\{w_{xt}(x)-w_{xt}(\xi)\}\{\psi_x(x)-\psi_x(\xi)\}`
   (the paper's eq. 15 integrated by parts; its boundary term is the free-end damping moment);
-* axial load: :math:`P \int w_x \psi_x`; root spring: :math:`k_\theta w_x(0)\psi_x(0)`.
+* axial load: :math:`P \int w_x \psi_x`; root spring: :math:`k_\theta w_x(0)\psi_x(0)`;
+* a translating base under the clamp: :math:`(m_b w_{tt}(0) + c_b w_t(0) + k_b w(0))\psi(0)`.
 
-The root is clamped (w = w_x = 0) or, with a root spring, pinned in w only.
+The root is clamped (w = w_x = 0), pinned in w only with a root spring, held in w_x only on a
+translating base, or free in both with a root spring on a base.
 """
 from __future__ import annotations
 
@@ -33,6 +35,8 @@ import numpy as np
 
 #: Gauss-Legendre rule on [0, 1] exact to degree 11 (products of two cubics are degree 6)
 _XI, _WEIGHT = (np.polynomial.legendre.leggauss(6)[0] + 1) / 2, np.polynomial.legendre.leggauss(6)[1] / 2
+#: the root dofs each root condition fixes (0: the deflection w(0), 1: the slope w_x(0))
+ROOT_DOFS = {"clamped": (0, 1), "spring": (0,), "base": (1,), "spring_base": ()}
 
 
 def hermite(xi: np.ndarray, h: float, order: int) -> np.ndarray:
@@ -53,8 +57,10 @@ def hermite(xi: np.ndarray, h: float, order: int) -> np.ndarray:
 class Mesh:
     """Uniform mesh of ``n_elements`` Hermite elements on [0, length] (m).
 
-    ``root`` is "clamped" (w(0) = w_x(0) = 0) or "spring" (w(0) = 0, the root slope free: a
-    rotational spring is added by :meth:`root_spring`). Free dofs are numbered in node order.
+    ``root`` is "clamped" (w(0) = w_x(0) = 0), "spring" (w(0) = 0, the root slope free: a
+    rotational spring is added by :meth:`root_spring`), "base" (w_x(0) = 0, the root deflection
+    free: a base is added by :meth:`root_translation`) or "spring_base" (both free). Free dofs are
+    numbered in node order.
     """
 
     length: float
@@ -62,8 +68,8 @@ class Mesh:
     root: str = "clamped"
 
     def __post_init__(self):
-        if self.root not in ("clamped", "spring"):
-            raise ValueError(f'root must be "clamped" or "spring", got {self.root!r}')
+        if self.root not in ROOT_DOFS:
+            raise ValueError(f"root must be one of {', '.join(ROOT_DOFS)}, got {self.root!r}")
         if self.n_elements < 1 or self.length <= 0:
             raise ValueError("Mesh needs n_elements >= 1 and length > 0")
 
@@ -74,8 +80,7 @@ class Mesh:
     @cached_property
     def free(self) -> np.ndarray:
         """Global dof numbers (node i: 2i deflection, 2i+1 slope) that are not constrained."""
-        fixed = 2 if self.root == "clamped" else 1
-        return np.arange(fixed, 2 * (self.n_elements + 1))
+        return np.array([d for d in range(2 * (self.n_elements + 1)) if d not in ROOT_DOFS[self.root]])
 
     @property
     def n_dof(self) -> int:
@@ -131,9 +136,15 @@ class Mesh:
 
     def root_spring(self) -> np.ndarray:
         """w_x(0) psi_x(0): the root spring's stiffness per unit k_theta (needs root = "spring")."""
-        if self.root != "spring":
-            raise ValueError('a root spring needs Mesh(root="spring")')
+        if 1 in ROOT_DOFS[self.root]:
+            raise ValueError('a root spring needs Mesh(root="spring") or "spring_base"')
         return self.point(0.0, order=1)
+
+    def root_translation(self) -> np.ndarray:
+        """w(0) psi(0): a base's mass, dashpot or spring per unit m_b, c_b, k_b (needs root = "base")."""
+        if 0 in ROOT_DOFS[self.root]:
+            raise ValueError('a translating base needs Mesh(root="base") or "spring_base"')
+        return self.point(0.0)
 
     def quadrature(self, points_per_element: int) -> tuple[np.ndarray, np.ndarray]:
         """Gauss-Legendre points and weights (m) covering the beam, ``points_per_element`` per element."""

@@ -137,7 +137,9 @@ MECHANISM_KEYS = {"air": ("gamma",), "strain_rate": ("cdI",), "time_hysteresis":
                   "spatial_hysteresis": ("a", "b"), **RELAXATION_KEYS}
 EFFECT_NAMES = {"k_theta": "root_compliance", "c_theta": "root_damping", "m_s": "sensor_mass",
                 "sensor_masses": "sensor_mass", "P": "axial_load",
-                "tau": "measurement_delay", "F_c": "dry_friction", "f_hp": "high_pass", "gains": "channel_gain"}
+                "tau": "measurement_delay", "F_c": "dry_friction", "f_hp": "high_pass", "gains": "channel_gain",
+                **dict.fromkeys(("m_b", "k_b", "c_b"), "base_support"),
+                **dict.fromkeys(("m_a", "k_a", "c_a", "x_a"), "attachment")}
 TIP_ACCELEROMETER = "accel_tip"
 NOTES = {"simulator": "tests.reference: Hermite cubic finite elements, exact exponential stepping",
          "daq": "every channel passes one zero-phase Kaiser-windowed-sinc low-pass (flat to 1e-5 below 0.40 fs, "
@@ -156,7 +158,8 @@ def record(beam: Beam, damping: dict, *, excitation, fs: float, duration: float,
     (c_e, mu; c_f, nu; Delta, tau_T: :mod:`tests.reference.relaxation`);
     effects: k_theta (N m/rad), c_theta (N m s/rad), m_s (kg, at the first sensor), sensor_masses
     (kg per sensor, in the order of ``sensors``), P (N), tau (s), f_hp (Hz, AC coupling of the response
-    channels), gains (one per sensor: each response channel reads 1 + g times the motion),
+    channels), gains (one per sensor: each response channel reads 1 + g times the motion), m_a, k_a,
+    c_a, x_a (kg, N/m, N s/m, m: a body on a spring and dashpot at x_a, its own dof),
     F_c (N, Coulomb friction at the tip; memory-free damping only);
     material: a ``[material]`` table written to beam.toml as given (docs/format.md);
     excitation: :class:`Hammer` (force channel "force") or :class:`Release` (no force channel);
@@ -198,6 +201,14 @@ def _truth_entry(key: str, value, sensors) -> dict:
     return {key: value}
 
 
+def _effects_truth(effects: dict, sensors) -> dict:
+    """{effect name: its true parameters}; an effect of several keys (a base's m_b, k_b, c_b) gathers them."""
+    out: dict[str, dict] = {}
+    for key, value in effects.items():
+        out.setdefault(EFFECT_NAMES[key], {}).update(_truth_entry(key, value, sensors))
+    return out
+
+
 def _truth(name, case, excitation, fs, n, seed, sensors, sensor_sd, force_sd, noise, numerics) -> dict:
     mechanisms = [m for m, keys in MECHANISM_KEYS.items() if keys[0] in case.damping]
     return {
@@ -207,7 +218,7 @@ def _truth(name, case, excitation, fs, n, seed, sensors, sensor_sd, force_sd, no
                       "tip_inertia": case.J},
         "mechanisms": mechanisms,
         "damping": dict(case.damping),
-        "effects": {EFFECT_NAMES[k]: _truth_entry(k, v, sensors) for k, v in case.effects.items()},
+        "effects": _effects_truth(case.effects, sensors),
         "excitation": {"kind": "force" if isinstance(excitation, Hammer) else "release", **asdict(excitation)},
         "sensors": [{"name": s.name, "location": s.location, "quantity": s.quantity} for s in sensors],
         "fs": fs,

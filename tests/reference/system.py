@@ -3,7 +3,8 @@ r"""The beam's linear state-space model, assembled from :mod:`tests.reference.fe
 .. math:: M\ddot w + D\dot w + K w - K_0\int_0^\infty g(\sigma)\,w(t-\sigma)\,d\sigma = b\,f(t)
 
 with :math:`K = EI\,K_0 + P\,G_0 + k_\theta e e^T`, :math:`D = \gamma M_0 + c_dI\,K_0 + D_{sh}(a, b) + c_\theta e e^T`,
-:math:`M = \rho A\,M_0` + tip body + sensor masses, and b the load row at the force's position.
+:math:`M = \rho A\,M_0` + tip body + sensor masses, and b the load row at the force's position; a
+translating base adds :math:`m_b, c_b, k_b` times :math:`r_0 r_0^T` (r_0 the root deflection's row).
 
 Two first-order forms, both integrated exactly by :mod:`tests.reference.integrate`:
 
@@ -32,7 +33,12 @@ from .memory import SumOfExponentials
 from .relaxation import RELAXATION_KEYS
 
 DAMPING_KEYS = ("gamma", "cdI", "alpha", "beta", "r", "a", "b", *(k for keys in RELAXATION_KEYS.values() for k in keys))
-EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "sensor_masses", "P", "tau", "F_c", "f_hp", "gains")
+EFFECT_KEYS = ("k_theta", "c_theta", "m_s", "sensor_masses", "P", "tau", "F_c", "f_hp", "gains",
+               "m_a", "k_a", "c_a", "x_a", "m_b", "k_b", "c_b")
+#: an attached body's keys: all four or none
+ATTACHMENT_KEYS = ("m_a", "k_a", "c_a", "x_a")
+#: a translating base's keys: all three or none
+BASE_KEYS = ("m_b", "k_b", "c_b")
 #: parameters that come in pairs
 PAIRS = (("alpha", "beta"), ("a", "b"), *RELAXATION_KEYS.values())
 ORDERS = {"displacement": 0, "velocity": 1, "acceleration": 2}
@@ -50,7 +56,9 @@ class BeamCase:
     ``sensors``: a point mass at any sensor; beside m_s the first sensor carries both), P (N, axial load, tension positive), tau (s,
     delay of the response channels), F_c (N, Coulomb friction at the tip: :mod:`tests.reference.friction`),
     f_hp (Hz, the response channels' AC coupling) and gains (per sensor, each channel reads 1 + g times
-    the motion): :func:`tests.reference.daq.measurement_chain`. ``sensors``: (location m, quantity).
+    the motion): :func:`tests.reference.daq.measurement_chain`; m_b (kg), k_b (N/m), c_b (N s/m): the clamp
+    on a translating base (all three), the root deflection freed (:func:`_on_base`). ``sensors``:
+    (location m, quantity).
     """
 
     length: float
@@ -77,6 +85,13 @@ class BeamCase:
             raise ValueError(f"damping parameters {unpaired} come in pairs: give both of each")
         if not self.damping.get("nu", 0.5) < 1:
             raise ValueError(f"fractional damping needs nu < 1, got {self.damping['nu']} (nu = 1 is cdI)")
+        attached = [k for k in ATTACHMENT_KEYS if k in self.effects]
+        if attached and (len(attached) < len(ATTACHMENT_KEYS) or not 0 < self.effects["x_a"] <= self.length):
+            raise ValueError(f"an attached body needs all of {', '.join(ATTACHMENT_KEYS)} with 0 < x_a <= l, "
+                             f"got {attached}")
+        based = [k for k in BASE_KEYS if k in self.effects]
+        if based and (len(based) < len(BASE_KEYS) or not min(self.effects["m_b"], self.effects["k_b"]) > 0):
+            raise ValueError(f"a translating base needs all of {', '.join(BASE_KEYS)} with m_b, k_b > 0, got {based}")
         if "c_theta" in self.effects and "k_theta" not in self.effects:
             raise ValueError("a root dashpot c_theta needs the root spring k_theta beside it (a rigid clamp has "
                              "no root slope to damp): give k_theta too")
@@ -108,7 +123,9 @@ class BeamCase:
         return any(keys[0] in self.damping for keys in RELAXATION_KEYS.values())
 
     def mesh(self, n_elements: int) -> Mesh:
-        return Mesh(self.length, n_elements, "spring" if "k_theta" in self.effects else "clamped")
+        spring, base = "k_theta" in self.effects, "k_b" in self.effects
+        root = {(False, False): "clamped", (True, False): "spring", (False, True): "base", (True, True): "spring_base"}
+        return Mesh(self.length, n_elements, root[spring, base])
 
 
 @dataclass(frozen=True)
@@ -138,7 +155,29 @@ def matrices(case: BeamCase, n_elements: int) -> Matrices:
         D = D + e["c_theta"] * mesh.root_spring()
     if "a" in d:
         D = D + mesh.spatial_hysteresis(d["a"], d["b"])
+    if "k_b" in e:
+        M, D, K = _on_base(mesh, e, M, D, K)
+    if "m_a" in e:
+        return _with_body(mesh, e, M, D, K)
     return Matrices(mesh, M, D, K, mesh.K0)
+
+
+def _on_base(mesh: Mesh, e: dict, M: np.ndarray, D: np.ndarray, K: np.ndarray):
+    """M, D, K with the clamp on a translating base: its kinetic energy m_b w_t(0)^2 / 2, spring
+    energy k_b w(0)^2 / 2 and dissipation c_b w_t(0)^2 / 2 (w is the absolute deflection)."""
+    at_root = mesh.root_translation()
+    return M + e["m_b"] * at_root, D + e["c_b"] * at_root, K + e["k_b"] * at_root
+
+
+def _with_body(mesh: Mesh, e: dict, M: np.ndarray, D: np.ndarray, K: np.ndarray) -> Matrices:
+    """The matrices with an attached body's displacement y as the last dof: kinetic energy
+    m_a y_t^2 / 2, the link's energy k_a (u(x_a) - y)^2 / 2 and dissipation c_a (u_t(x_a) - y_t)^2 / 2."""
+    n = len(M)
+    link = np.concatenate([mesh.rows([e["x_a"]])[0], [-1.0]])
+    grown = [np.pad(a, (0, 1)) for a in (M, D, K, mesh.K0)]
+    grown[0][n, n] = e["m_a"]
+    return Matrices(mesh, grown[0], grown[1] + e["c_a"] * np.outer(link, link),
+                    grown[2] + e["k_a"] * np.outer(link, link), grown[3])
 
 
 @dataclass(frozen=True)
@@ -160,9 +199,14 @@ class Blocks:
         return np.stack([-np.linalg.solve(a, b * load) for a, b in zip(self.A, self.B)])
 
 
+def on_dofs(rows: np.ndarray, n: int) -> np.ndarray:
+    """Mesh rows (k, n_mesh) on all n dofs: zeros on an attached body's (sensors and the load act on the beam)."""
+    return np.pad(rows, ((0, 0), (0, n - rows.shape[1])))
+
+
 def _readout(case: BeamCase, mesh: Mesh, A: np.ndarray, B: np.ndarray, disp: np.ndarray, vel: np.ndarray):
     """Sensor matrices C (n_out, ns), F (n_out,) from state->deflection and state->velocity maps."""
-    rows = mesh.rows([x for x, _ in case.sensors])
+    rows = on_dofs(mesh.rows([x for x, _ in case.sensors]), disp.shape[0])
     C, F = [], []
     for r, (_, quantity) in zip(rows, case.sensors):
         order = ORDERS[quantity]
@@ -173,10 +217,10 @@ def _readout(case: BeamCase, mesh: Mesh, A: np.ndarray, B: np.ndarray, disp: np.
 
 def full_blocks(case: BeamCase, mats: Matrices, load_at: float) -> Blocks:
     """One block, the whole finite-element state (w, w_t); input: a unit force at ``load_at`` (m)."""
-    n = mats.mesh.n_dof
+    n = len(mats.M)
     minv_k, minv_d = np.linalg.solve(mats.M, mats.K), np.linalg.solve(mats.M, mats.D)
     A = np.block([[np.zeros((n, n)), np.eye(n)], [-minv_k, -minv_d]])
-    B = np.concatenate([np.zeros(n), np.linalg.solve(mats.M, mats.mesh.rows([load_at])[0])])
+    B = np.concatenate([np.zeros(n), np.linalg.solve(mats.M, on_dofs(mats.mesh.rows([load_at]), n)[0])])
     disp, vel = np.eye(n, 2 * n), np.eye(n, 2 * n, n)
     C, F = _readout(case, mats.mesh, A, B, disp, vel)
     return Blocks(A[None], B[None], C[None], F)
@@ -236,7 +280,7 @@ def modal_blocks(case: BeamCase, mats: Matrices, load_at: float, omega_cut: floa
                          f"block of {omega.size * (3 + soe.rates.size)} states, over {MAX_COUPLED_STATES}. Fix: keep "
                          "fewer modes or exponentials, e.g. Numerics(omega_cut=2 * pi * 2000, du=0.7).")
     groups = [np.arange(omega.size)] if coupled else [np.array([k]) for k in range(omega.size)]
-    load = phi.T @ mats.mesh.rows([load_at])[0]
+    load = phi.T @ on_dofs(mats.mesh.rows([load_at]), len(mats.M))[0]
     blocks = [_memory_block(case, mats.mesh, soe, omega[g], phi[:, g], damping[np.ix_(g, g)],
                             curvature[np.ix_(g, g)], load[g]) for g in groups]
     A, B, C, F = (np.stack(parts) for parts in zip(*blocks))

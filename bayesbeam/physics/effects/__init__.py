@@ -2,11 +2,14 @@
 
 Adding an effect touches its module, one line of ``REGISTRY`` and its tests.
 """
+from bayesbeam.physics.effects.attachment import Attachment
 from bayesbeam.physics.effects.axial_load import AxialLoad
 from bayesbeam.physics.effects.base import Effect, Setup
+from bayesbeam.physics.effects.base_support import BaseSupport
 from bayesbeam.physics.effects.channel_gain import ChannelGain
 from bayesbeam.physics.effects.dry_friction import DryFriction
 from bayesbeam.physics.effects.high_pass import HighPass
+from bayesbeam.physics.effects.mains_lines import MainsLines
 from bayesbeam.physics.effects.measurement_delay import MeasurementDelay
 from bayesbeam.physics.effects.quadratic_drag import QuadraticDrag
 from bayesbeam.physics.effects.root_compliance import RootCompliance
@@ -15,7 +18,8 @@ from bayesbeam.physics.effects.sensor_mass import SensorMass
 
 REGISTRY: dict[str, Effect] = {
     e.name: e for e in (RootCompliance(), SensorMass(), AxialLoad(), MeasurementDelay(),
-                        QuadraticDrag(), DryFriction(), RootDamping(), HighPass(), ChannelGain())
+                        QuadraticDrag(), DryFriction(), RootDamping(), HighPass(), ChannelGain(),
+                        Attachment(), MainsLines(), BaseSupport())
 }
 
 

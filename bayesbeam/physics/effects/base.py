@@ -8,7 +8,10 @@ Like a damping mechanism it has named parameters (SI units) and adds to the Gale
   delay the response channels, or filter them (a transfer function of the measurement chain applied
   to each response channel, never to the force); the exact frequency-domain solver handles them;
 * nonlinear effects add a velocity-dependent force that needs a time integrator
-  (:mod:`bayesbeam.response.nonlinear`).
+  (:mod:`bayesbeam.response.nonlinear`);
+* an additive signal on the response channels that is linear in unknown amplitudes (mains pickup)
+  gives those amplitudes' columns (:meth:`Effect.latent_columns`), which the likelihood
+  marginalises; the simulated response is unchanged.
 """
 from __future__ import annotations
 
@@ -32,10 +35,14 @@ class Setup:
 class Effect(Component):
     """A missing-physics effect: parameters (the catalogue's names, SI units) and contributions."""
 
-    #: root condition the basis must satisfy with this effect on ("clamped" or "pinned")
+    #: root condition the basis must satisfy with this effect on ("clamped", "pinned" or "sliding";
+    #: a model joins them, :func:`bayesbeam.physics.basis.combined_root`)
     root: str = "clamped"
     #: True when the effect keeps the equations linear
     linear: bool = True
+    #: True when the effect brings degrees of freedom of its own (an attached body's motion),
+    #: appended after the beam's by :meth:`extend`
+    extends: bool = False
     #: parameter values at which the effect vanishes (the optimiser's global search starts there:
     #: an effect's prior median, such as a tension of several buckling loads, is no neutral guess)
     absent: ClassVar[dict[str, float]] = {}
@@ -51,6 +58,14 @@ class Effect(Component):
     def damping(self, ops: BeamOperators, values, setup: Setup) -> np.ndarray | None:
         """Added damping matrix (N s/m in generalised coordinates), or None."""
         return None
+
+    def extend(self, ops: BeamOperators, values, setup: Setup, mass: np.ndarray, damping: np.ndarray,
+               stiffness: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(mass, damping, stiffness) with the effect's own degrees of freedom appended after those
+        given (the beam's first, then those of the effects before it), coupled to the beam through
+        its rows in ``ops``; the sensors, the load and a memory term act on the beam's alone.
+        Default (``extends`` False): the matrices as given."""
+        return mass, damping, stiffness
 
     def reference(self, values) -> dict[str, float]:
         """The effect's parameter values at the reference beam near ``values`` whose undamped
@@ -73,6 +88,15 @@ class Effect(Component):
         """The measurement chain's transfer function at complex frequencies ``s`` (1/s), applied to
         the response channels (never the force): an array broadcastable to (len(s), n_sensors),
         or None where it is 1 (the default: the effect does not filter the channels)."""
+        return None
+
+    def latent_columns(self, time: np.ndarray, values, n_sensors: int, max_frequency: float) -> np.ndarray | None:
+        """Columns Psi (n_samples, n_sensors, J) of an additive signal Psi a on the response channels
+        with unknown amplitudes a, at the record's ``time`` (s) and for a likelihood whose band ends
+        at ``max_frequency`` (Hz); None (the default) where the effect adds none. They must not
+        depend on the beam's parameters: the likelihood caches them per value of the effect's own.
+        The likelihood marginalises a under its one wide prior rule for latent amplitudes
+        (:mod:`bayesbeam.inference.likelihood`)."""
         return None
 
     def channel_poles(self, values) -> tuple[np.ndarray, np.ndarray]:

@@ -41,3 +41,14 @@ def half_sine(t0: float, width: float, peak: float):
         inside = (t >= t0) & (t <= t0 + width)
         return np.where(inside, peak * np.sin(np.pi * (t - t0) / width), 0.0)
     return f
+
+
+def transfer_error(model, system, n_poles: int, f_max: float = 200.0) -> float:
+    """max |H_fast - H_direct| / max |H_direct| of ``system``'s fast transfer function against a
+    direct solve of Z(s) w = load per frequency, on the model's grid up to ``f_max`` (Hz) and just
+    right of the first ``n_poles`` poles (the resonance peaks)."""
+    poles = system.poles()[:n_poles]
+    s = np.concatenate([model.grid.s[model.grid.freq < f_max], 0.01 * poles.imag + 1j * poles.imag])
+    fast = system.transfer(s, model.rows, model.load[:, None])
+    direct = np.stack([model.rows @ np.linalg.solve(z, model.load) for z in system.dynamic_stiffness(s)])[:, :, None]
+    return float(np.max(np.abs(fast - direct)) / np.max(np.abs(direct)))

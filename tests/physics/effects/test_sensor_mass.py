@@ -38,7 +38,7 @@ def tip_mass_determinant(b: float, mu: float) -> float:
 
 def point_mass_determinant(b: float, mu: float, a: float) -> float:
     """Mass at x = a inside the span: 8 unknowns (4 per segment, local coordinates)."""
-    rows = np.zeros((8, 8))
+    rows = np.zeros((8, 8), dtype=np.result_type(b, float))
     v0, va, v2 = _values(b, 0.0), _values(b, a), _values(b, 1.0 - a)
     rows[0, :4], rows[1, :4] = v0[0], v0[1]                  # clamped root
     for k in range(3):                                       # u, u', u'' continuous
@@ -46,7 +46,7 @@ def point_mass_determinant(b: float, mu: float, a: float) -> float:
     rows[5, :4] = -va[3] - mu * b * va[0]                    # u2''' - u1''' = mu b^4 u, / b^3
     rows[5, 4:] = v0[3]
     rows[6, 4:], rows[7, 4:] = v2[2], v2[3]                  # free end
-    return np.linalg.det(rows / np.cosh(b)) if b > 0 else np.nan
+    return np.linalg.det(rows / np.cosh(b)) if b != 0 else np.nan
 
 
 def roots(fun, count, *args):

@@ -1,0 +1,122 @@
+r"""Mains pickup on the response channels: sinusoids at the harmonics of the mains frequency.
+
+A sensor's cable, a ground loop or the DAQ's supply picks up the mains: every response channel
+reads the motion plus :math:`\sum_k a_{ck}\cos(2\pi k f_{mains} t) + b_{ck}\sin(2\pi k f_{mains} t)`,
+with its own unknown amplitudes per channel c and harmonic k. The pickup is not beam motion:
+the model's simulated response is unchanged, and the force channel is not touched (a hammer's
+pulse lasts a millisecond and the force window keeps only its samples).
+
+Linear in a and b, the pickup is marginalised analytically beside the other latent terms of the
+likelihood (:mod:`bayesbeam.inference.likelihood`), never sampled: this module gives the columns
+(:meth:`MainsLines.latent_columns`), the likelihood their prior. Harmonics: every k >= 1 with
+k f_mains at or below the top of the fitted band.
+
+f_mains is fixed at the nominal mains frequency (a default, not a sampled parameter): ``[setup]
+mains_hz`` where beam.toml states it, else 50 or 60 Hz by which has harmonics standing
+:data:`LINE_FACTOR` above the noise floor in both the first and the last third of the record with
+:data:`PERSISTENT` of their amplitude kept (a beam mode decays; the test ``bayesbeam check``
+applies), else 50 Hz. Grids hold their frequency within +-0.2 Hz (typically +-0.05 Hz); a shift
+of 0.02 Hz turns the fundamental by 0.08 cycles over a 4 s record, so the columns at the nominal
+frequency carry the line, and sampling f_mains would buy little for a posterior that is its
+prior on short records and multimodal (side lobes every 1/(k T)) on long ones.
+"""
+from __future__ import annotations
+
+import copy
+from typing import ClassVar
+
+import numpy as np
+from scipy import signal
+
+from bayesbeam.physics.effects.base import Effect
+
+#: the nominal mains frequencies (Hz) and the one taken when neither is found in the record
+MAINS = (50.0, 60.0)
+#: a harmonic's periodogram peak stands this many times above the median density (15 dB, as the
+#: spectral peaks of ``bayesbeam check``)
+LINE_FACTOR = 30.0
+#: a line keeps this fraction of its amplitude from the first to the last third of the record
+PERSISTENT = 0.8
+#: a line's peak is looked for within this many bins of the harmonic
+LINE_BINS = 2
+#: the top of the record's spectrum searched for harmonics, as a fraction of fs (the DAQ passband)
+PASSBAND = 0.4
+
+
+class MainsLines(Effect):
+    name = "mains_lines"
+    parameters = ("f_mains",)
+    units: ClassVar[dict[str, str]] = {"f_mains": "Hz"}
+    defaults: ClassVar[dict[str, float]] = {"f_mains": MAINS[0]}
+    description = ("mains pickup on every response channel: sinusoids at each harmonic k f_mains in the fitted "
+                   "band with free amplitude and phase per channel, marginalised (f_mains fixed: [setup] mains_hz, "
+                   "else the record's lines, else 50 Hz)")
+
+    def bind(self, recording) -> MainsLines:
+        """The effect for ``recording``: f_mains its nominal mains frequency (:func:`nominal_mains`)."""
+        bound = copy.copy(self)
+        bound.defaults = {"f_mains": nominal_mains(recording)}
+        return bound
+
+    def check(self, values) -> None:
+        f = values["f_mains"]
+        if not (np.isfinite(f) and f > 0):
+            raise ValueError(f"{self.name}: f_mains = {f!r} Hz is not physical (must be finite and > 0)")
+
+    def latent_columns(self, time, values, n_sensors, max_frequency):
+        """Unit cos and sin of each harmonic k f_mains <= ``max_frequency`` on each response channel:
+        (n_samples, n_sensors, 2 K n_sensors), column (c, k, cos/sin) nonzero on channel c only."""
+        harmonics = harmonics_in_band(values["f_mains"], max_frequency)
+        phase = 2 * np.pi * np.outer(time - time[0], harmonics)                       # (n, K)
+        waves = np.concatenate([np.cos(phase), np.sin(phase)], axis=1)                # (n, 2K)
+        columns = np.zeros((time.size, n_sensors, n_sensors * waves.shape[1]))
+        for c in range(n_sensors):
+            columns[:, c, c * waves.shape[1]:(c + 1) * waves.shape[1]] = waves
+        return columns
+
+
+def harmonics_in_band(f_mains: float, max_frequency: float) -> np.ndarray:
+    """The frequencies k f_mains (Hz), k = 1, 2, ..., at or below ``max_frequency``."""
+    return f_mains * np.arange(1, int(np.floor(max_frequency / f_mains + 1e-9)) + 1)
+
+
+def nominal_mains(recording) -> float:
+    """``[setup] mains_hz`` where stated; else the nominal of :data:`MAINS` with more persistent lines
+    in the record's response channels (:func:`persistent_lines`; the higher summed peak ratio breaks a
+    tie); else 50 Hz."""
+    stated = recording.setup.mains_hz
+    if stated is not None:
+        return float(stated)
+    counts = [persistent_lines(recording, m) for m in MAINS]
+    best = max(range(len(MAINS)), key=lambda i: counts[i])
+    return MAINS[best] if counts[best][0] > 0 else MAINS[0]
+
+
+def persistent_lines(recording, f_mains: float) -> tuple[int, float]:
+    """(how many (channel, harmonic) pairs carry a persistent line, their summed peak ratio) at the
+    harmonics of ``f_mains`` below the DAQ passband: the whole record's periodogram peaks within
+    one bin of the harmonic and LINE_FACTOR above the median density, and the peak's density in
+    the last third of the record is at least PERSISTENT^2 of that in the first (a mode decays)."""
+    x, fs = recording.signals, recording.fs
+    n = x.shape[0] // 3
+    peak, at, floor = _harmonic_peaks(x, fs, f_mains)
+    first, last = (_harmonic_peaks(part, fs, f_mains)[0] for part in (x[:n], x[-n:]))
+    ratio = peak / floor
+    found = at & (ratio >= LINE_FACTOR) & (last >= PERSISTENT**2 * first)
+    return int(found.sum()), float(ratio[found].sum())
+
+
+def _harmonic_peaks(x: np.ndarray, fs: float, f_mains: float):
+    """Per harmonic below the DAQ passband and channel, (K, c): the periodogram's peak density
+    within LINE_BINS of the harmonic, whether that peak lies within one bin of it, and the median
+    density below the passband (c,)."""
+    f, density = signal.periodogram(x, fs, window="hann", axis=0)
+    step = f[1]
+    harmonics = [h for h in harmonics_in_band(f_mains, PASSBAND * fs) if h >= LINE_BINS * step]
+    peaks, at = np.zeros((len(harmonics), x.shape[1])), np.zeros((len(harmonics), x.shape[1]), bool)
+    for i, h in enumerate(harmonics):
+        near = np.flatnonzero(np.abs(f - h) <= LINE_BINS * step)
+        top = near[np.argmax(density[near], axis=0)]
+        peaks[i], at[i] = density[top, np.arange(x.shape[1])], np.abs(f[top] - h) <= step
+    band = (f > 0) & (f < PASSBAND * fs)
+    return peaks, at, np.maximum(np.median(density[band], axis=0), np.finfo(float).tiny)
