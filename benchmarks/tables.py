@@ -22,7 +22,7 @@ README = HERE / "README.md"
 #: the benchmarks with a block in README.md, in its order
 NAMES = ("forward", "effects", "sampling", "batch", "compare", "compare_full", "diagnose",
          "diagnose_paper_quadratic_drag", "diagnose_paper_dry_friction", "from_comparison", "from_comparison_root_spring",
-         "basis", "ppc")
+         "catalogue", "basis", "ppc")
 #: results kept under another name than their script's (name -> script): the same benchmark at another setting
 SCRIPTS = {"compare_full": "compare", "diagnose_paper_quadratic_drag": "diagnose",
            "diagnose_paper_dry_friction": "diagnose", "from_comparison_root_spring": "from_comparison"}
@@ -59,7 +59,9 @@ TARGETS = {("compare", ""): "`compare`, five default models, 150 Hz",
            ("from_comparison", "compare_"): "`compare`, two accelerometers, 4 s at 4096 Hz, 150 Hz",
            ("from_comparison", ""): "`diagnose --from-comparison` of that comparison (baseline: fitting its own)",
            ("from_comparison_root_spring", "compare_"): "`compare`, the same with a root spring concealed",
-           ("from_comparison_root_spring", ""): "`diagnose --from-comparison` of it (baseline: fitting its own)"}
+           ("from_comparison_root_spring", ""): "`diagnose --from-comparison` of it (baseline: fitting its own)",
+           **{("catalogue", f"{name}_"): f"`diagnose --model`, {name}, whole catalogue (target: 1.5 x baseline)"
+              for name in ("alu_q1_release", "paper_q3_hammer", "paper_rootcomp_hammer")}}
 
 
 def targets() -> str:
