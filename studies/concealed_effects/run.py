@@ -57,7 +57,8 @@ def pending(force: bool) -> list[str]:
 
 # ---------------------------------------------------------------------------- tables
 def rows() -> list[dict]:
-    """One row per diagnosed recording: truth, what was found, estimate, evidence, residuals."""
+    """One row per diagnosed recording: truth, what was found, estimates, evidence, residuals. A
+    recording may conceal several effects (a clamp's spring and dashpot), each of several parameters."""
     out = []
     for truth_path in sorted(RECORDINGS.glob("*/truth.json")):
         name = truth_path.parent.name
@@ -65,14 +66,16 @@ def rows() -> list[dict]:
         if not result.exists():
             continue
         truth, d = json.loads(truth_path.read_text()), json.loads(result.read_text())
-        effect = truth["effect"]
-        (parameter, value), = truth["effect_parameters"].items() if effect else ((None, None),)
-        added = next((c for c in d["candidates"] if c["added"] and c["effect"] == effect), None)
-        estimate = added["parameters"][parameter] if added else None
-        out.append({"name": name, "beam": truth["beam"], "model": truth["damping_model"], "effect": effect,
-                    "parameter": parameter, "truth": value, "added": d["added"], "estimate": estimate,
-                    "covered": bool(estimate and estimate["q05"] <= value <= estimate["q95"]),
-                    "lnB": (added["delta_log_evidence"], added["delta_log_evidence_sd"]) if added else None,
+        effects = truth["effect"].split("+") if truth["effect"] else []
+        added = [c for c in d["candidates"] if c["added"] and c["effect"] in effects]
+        fitted = {p: q for c in added for p, q in c["parameters"].items()}
+        estimates = {p: fitted.get(p) for p in truth["effect_parameters"]}
+        out.append({"name": name, "beam": truth["beam"], "model": truth["damping_model"], "effect": truth["effect"],
+                    "effects": effects, "truth": truth["effect_parameters"], "added": d["added"],
+                    "named": sorted(d["added"]) == sorted(effects), "estimates": estimates,
+                    "covered": bool(added) and all(q is None or q["q05"] <= truth["effect_parameters"][p] <= q["q95"]
+                                                   for p, q in estimates.items()),
+                    "lnB": [(c["effect"], c["delta_log_evidence"], c["delta_log_evidence_sd"]) for c in added],
                     "tried": [(c["effect"], c["delta_log_evidence"]) for c in d["candidates"]],
                     "refused": [c for c in d["candidates"] if not c["added"]],
                     "rms": (d["baseline"]["rms_standardized_residual"], d["final"]["rms_standardized_residual"]),
@@ -81,18 +84,22 @@ def rows() -> list[dict]:
     return out
 
 
+def _estimate(q: dict | None) -> str:
+    return f"{q['mean']:.4g} [{q['q05']:.4g}, {q['q95']:.4g}] {q['unit']}" if q else "-"
+
+
 def effect_table(found: list[dict]) -> str:
     head = ("| recording | effect (truth) | added | estimate, mean [90 %] | truth inside | ln B (sd) | "
             "RMS std. residual before -> after | flags before -> after | s |\n|" + "---|" * 9)
     lines = [head]
     for r in found:
-        est = r["estimate"]
-        est_text = f"{est['mean']:.4g} [{est['q05']:.4g}, {est['q95']:.4g}] {est['unit']}" if est else "-"
-        lnb = f"{r['lnB'][0]:.1f} ({r['lnB'][1]:.1f})" if r["lnB"] else "-"
-        lines.append(f"| {r['name']} | {r['effect']} {r['parameter']} = {r['truth']:.4g} | "
-                     f"{', '.join(r['added']) or 'nothing'} | {est_text} | {'yes' if r['covered'] else 'NO'} | "
-                     f"{lnb} | {r['rms'][0]:.2f} -> {r['rms'][1]:.2f} | {r['flags'][0]} -> {r['flags'][1]} | "
-                     f"{r['seconds']:.0f} |")
+        truth = "; ".join(f"{p} = {v:.4g}" for p, v in r["truth"].items())
+        est = "; ".join(f"{p} {_estimate(q)}" if len(r["estimates"]) > 1 else _estimate(q)
+                        for p, q in r["estimates"].items())
+        lnb = "; ".join(f"{b:.1f} ({sd:.1f})" for _, b, sd in r["lnB"]) or "-"
+        lines.append(f"| {r['name']} | {r['effect']} {truth} | {', '.join(r['added']) or 'nothing'} | {est} | "
+                     f"{'yes' if r['covered'] else 'NO'} | {lnb} | {r['rms'][0]:.2f} -> {r['rms'][1]:.2f} | "
+                     f"{r['flags'][0]} -> {r['flags'][1]} | {r['seconds']:.0f} |")
     return "\n".join(lines)
 
 
@@ -122,19 +129,29 @@ def refused_table(all_rows: list[dict]) -> str:
 RESULTS = HERE / "results.md"
 
 
+#: recordings of the second set (generate_reference.py): physics around the beam, made by tests.reference
+REFERENCE_PREFIX = "ref_"
+
+
 def blocks() -> dict[Path, dict[str, str]]:
-    """The generated blocks of results.md, from out/*/diagnosis.json and recordings/*/truth.json."""
+    """The generated blocks of results.md, from out/*/diagnosis.json and recordings/*/truth.json:
+    the catalogue set's (``concealed-*``) and the reference set's (``reference-*``)."""
     all_rows = rows()
-    found = [r for r in all_rows if r["effect"]]
-    nulls = [r for r in all_rows if not r["effect"]]
-    named = sum(r["added"] == [r["effect"]] for r in found)
-    covered = sum(r["covered"] for r in found)
-    alarms = sum(bool(r["added"]) for r in nulls)
-    score = (f"**Named correctly (exactly the concealed effect added): {named} of {len(found)}. "
-             f"Truth inside the 90 % interval: {covered} of {len(found)}. "
-             f"False alarms (an effect added to a null recording): {alarms} of {len(nulls)}.**")
-    return {RESULTS: {"concealed-score": score, "concealed-effects": effect_table(found),
-                      "concealed-nulls": null_table(nulls), "concealed-refused": refused_table(all_rows)}}
+    sets = {"concealed": [r for r in all_rows if not r["name"].startswith(REFERENCE_PREFIX)],
+            "reference": [r for r in all_rows if r["name"].startswith(REFERENCE_PREFIX)]}
+    out = {}
+    for key, chosen in sets.items():
+        found = [r for r in chosen if r["effect"]]
+        nulls = [r for r in chosen if not r["effect"]]
+        named = sum(r["named"] for r in found)
+        covered = sum(r["covered"] for r in found)
+        alarms = sum(bool(r["added"]) for r in nulls)
+        out |= {f"{key}-score": (f"**Named correctly (exactly the concealed effects added): {named} of {len(found)}. "
+                                 f"Truth inside the 90 % interval: {covered} of {len(found)}. "
+                                 f"False alarms (an effect added to a null recording): {alarms} of {len(nulls)}.**"),
+                f"{key}-effects": effect_table(found), f"{key}-nulls": null_table(nulls),
+                f"{key}-refused": refused_table(chosen)}
+    return {RESULTS: out}
 
 
 def main(argv=None) -> int:
