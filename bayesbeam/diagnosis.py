@@ -97,8 +97,9 @@ GRAVITY = 9.80665
 HIGH_PASS_LIMIT = 10.0
 #: stated calibration tolerances a fitted channel gain may lie from 0 (:func:`stand_in`)
 GAIN_STAND_IN_TOLERANCES = 5.0
-#: a support resonance above this many times the Nyquist frequency fs/2 is none (:func:`stand_in`)
-BASE_FREQUENCY_LIMIT = 10.0
+#: a support resonance, or an attached body's own mode, above this many times the Nyquist frequency
+#: fs/2 is none (:func:`stand_in`)
+RESONANCE_LIMIT = 10.0
 #: a base heavier than this many times the mass beyond the clamp (rho A l + m_T) is none (:func:`stand_in`)
 BASE_MASS_LIMIT = 1e4
 
@@ -722,8 +723,10 @@ def allowed_by_setup(effect: str, rec) -> dict[str, tuple[float, float]]:
     if effect == "channel_gain":
         return {name: (-GAIN_STAND_IN_TOLERANCES * tol, GAIN_STAND_IN_TOLERANCES * tol)
                 for name, tol in stated_gain_tolerances(setup).items()}
+    if effect == "attachment":
+        return {"f_a": (0.0, RESONANCE_LIMIT / (2 * rec.dt))}
     if effect == "base_support":
-        return {"f_b": (0.0, BASE_FREQUENCY_LIMIT / (2 * rec.dt)),
+        return {"f_b": (0.0, RESONANCE_LIMIT / (2 * rec.dt)),
                 "m_b": (0.0, BASE_MASS_LIMIT * (rec.beam.rho_a * rec.beam.length + rec.tip.mass))}
     return {}
 
@@ -740,9 +743,12 @@ def _not_needed(effect: str, name: str, summary: dict, rec) -> bool:
 STAND_IN_WHY = {
     "high_pass": f"above {HIGH_PASS_LIMIT:g} Hz, far above any IEPE sensor's or DAQ's AC-coupling corner",
     "channel_gain": f"more than {GAIN_STAND_IN_TOLERANCES:g} times the sensor's stated calibration tolerance",
-    "base_support": (f"a base resonance above {BASE_FREQUENCY_LIMIT:g} times the Nyquist frequency acts in the band only "
+    "base_support": (f"a base resonance above {RESONANCE_LIMIT:g} times the Nyquist frequency acts in the band only "
                      f"as a translational root compliance, or a base over {BASE_MASS_LIMIT:g} times the mass beyond "
                      "the clamp barely couples to the beam"),
+    "attachment": (f"a body whose own mode lies above {RESONANCE_LIMIT:g} times the Nyquist frequency rides with the "
+                   "beam as a point mass at x_a: it stands in for a mass the set-up misstates (a sensor's, the tip "
+                   "body's) or another effect that lowers the modes in that pattern"),
     "mains_lines": ("the record shows no line at a harmonic of f_mains that keeps its amplitude over the record "
                     "(bayesbeam check's mains-line test), so its sinusoids absorb a mode or a transient, not pickup"),
 }
@@ -775,7 +781,12 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
       sensor's ``gain_tolerance`` (0.02 where not stated). A calibration five of its own
       uncertainties off is not a calibration error; the gain stands in for an amplitude mismatch of
       the channel (a sensor off its stated place, a wrong mode shape there).
-    * ``base_support``: median f_b above :data:`BASE_FREQUENCY_LIMIT` = 10 times the Nyquist
+    * ``attachment``: median f_a above :data:`RESONANCE_LIMIT` = 10 times the Nyquist frequency.
+      A body's effect on the band depends on its own mode only while that mode lies near or in it;
+      ten times above everything the recording resolves, the link is rigid and the body a point
+      mass at x_a, the sensor_mass's pattern at a place no sensor states: a mass the set-up
+      misstates, or whatever lowers the modes by phi_m(x_a)^2, not an attached resonator.
+    * ``base_support``: median f_b above :data:`RESONANCE_LIMIT` = 10 times the Nyquist
       frequency fs/2, or median m_b above :data:`BASE_MASS_LIMIT` = 1e4 times the mass beyond the
       clamp, rho A l + m_T. A base resonance ten times above all the recording resolves shows in the
       band only as a translational compliance of the root, lowering mode m by about

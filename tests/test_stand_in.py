@@ -198,6 +198,18 @@ def test_a_base_far_above_the_band_or_far_heavier_than_the_beam_is_a_stand_in(f_
     assert (verdict and verdict["parameter"]) == expected
 
 
+@pytest.mark.parametrize(("f_a", "expected"), [(45.0, None), (0.99, None), (1.01, "f_a")])
+def test_an_attached_body_whose_mode_lies_far_above_the_band_is_a_stand_in(f_a, expected):
+    """At 512 Hz a body's own mode 1 % inside ten times the Nyquist frequency (f_a given as a
+    fraction of 2560 Hz where below 2) is an attachment, 1 % beyond it a stand-in (a point mass)."""
+    rec = recording()
+    frequency = f_a * 10 * 256.0 if f_a < 2 else f_a
+    parameters = {**summary("f_a", frequency, "Hz"), **summary("m_a", 0.03, "kg"), **summary("zeta_a", 0.02, "-"),
+                  **summary("x_a", 0.6, "m")}
+    verdict = stand_in("attachment", parameters, rec)
+    assert (verdict and verdict["parameter"]) == expected
+
+
 def test_a_base_the_data_do_not_need_is_no_stand_in():
     """Unneeded, f_b's posterior reaches the prior's top, where the effect vanishes (1e4 f_1): its
     upper 5 % point within a factor 2 of that is no stand-in, however far above the band the median."""
