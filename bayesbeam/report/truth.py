@@ -14,23 +14,30 @@ TRUTH_FILE = "truth.json"
 
 def recording_truths(rec) -> dict[str, float]:
     """Parameter name -> true value (SI units) of ``rec`` (a Recording): EI, the damping
-    parameters and each concealed effect's parameter; empty when no truth.json lies beside it.
-    truth.json stores an effect's value under the effect's name (``root_compliance``), so it is
-    returned under the effect's one parameter (``k_theta``)."""
+    parameters and each concealed effect's parameters; empty when no truth.json lies beside it.
+    truth.json may give EI in ``beam_true`` or at its top, and an effect's value under the effect's
+    name (``root_compliance``: returned under its one parameter, ``k_theta``) or its parameters
+    under their own names (``f_a``, ``m_a``, ...); entries of neither kind are not truths of a
+    fitted parameter and are left out."""
     path = Path(rec.source) / TRUTH_FILE if rec.source else None
     if path is None or not path.is_file():
         return {}
     truth = json.loads(path.read_text(encoding="utf-8"))
-    values = {"EI": truth["beam_true"]["EI"], **truth.get("damping", {})}
+    ei = truth.get("beam_true", {}).get("EI", truth.get("EI"))
+    values = ({} if ei is None else {"EI": ei}) | truth.get("damping", {})
     return values | _effect_truths(truth.get("effect_parameters", {}))
 
 
 def _effect_truths(effects: dict) -> dict[str, float]:
-    from bayesbeam.physics.effects import resolve
+    from bayesbeam.physics.effects import REGISTRY
 
+    parameters = {p for effect in REGISTRY.values() for p in effect.parameters}
     out = {}
-    for name, value in effects.items():
-        parameters = resolve([name])[0].parameters
-        if len(parameters) == 1 and isinstance(value, (int, float)):
-            out[parameters[0]] = float(value)
+    for key, value in effects.items():
+        if not isinstance(value, (int, float)):
+            continue
+        if key in REGISTRY and len(REGISTRY[key].parameters) == 1:
+            out[REGISTRY[key].parameters[0]] = float(value)
+        elif key in parameters:
+            out[key] = float(value)
     return out

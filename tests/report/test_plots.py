@@ -38,3 +38,13 @@ def test_truths_are_read_from_the_truth_json_beside_the_recording(tmp_path):
         {"EI": 43.952, "gamma": 0.3, "cdI": 7e-5, "k_theta": 3500.0}, rel=0)
     assert recording_truths(SimpleNamespace(source=tmp_path / "elsewhere")) == {}
     assert recording_truths(SimpleNamespace(source=None)) == {}
+
+
+def test_truths_keyed_by_parameter_and_a_top_level_EI_are_read_too(tmp_path):
+    """The study recordings' truth.json: EI at the top, an effect's parameters under their own names
+    (an attached body's f_a, m_a, zeta_a, x_a); a simulator's own names (k_a) are no fitted
+    parameter's truth and are left out."""
+    (tmp_path / "truth.json").write_text(json.dumps({"EI": 44.28, "damping": {"gamma": 0.3},
+                                                     "effect_parameters": {"f_a": 45.0, "m_a": 0.03, "k_a": 2448.0}}))
+    assert recording_truths(SimpleNamespace(source=tmp_path)) == pytest.approx(
+        {"EI": 44.28, "gamma": 0.3, "f_a": 45.0, "m_a": 0.03}, rel=0)
