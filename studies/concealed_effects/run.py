@@ -68,7 +68,10 @@ def rows() -> list[dict]:
         truth, d = json.loads(truth_path.read_text()), json.loads(result.read_text())
         effects = truth["effect"].split("+") if truth["effect"] else []
         added = [c for c in d["candidates"] if c["added"] and c["effect"] in effects]
-        fitted = {p: q for c in added for p, q in c["parameters"].items()}
+        # the final model's posterior where it holds the parameter: an effect added in round 1 is
+        # refitted beside a partner added later (a root spring beside the root dashpot)
+        final = d["final"]["parameters"]
+        fitted = {p: final.get(p, q) for c in added for p, q in c["parameters"].items()}
         estimates = {p: fitted.get(p) for p in truth["effect_parameters"]}
         out.append({"name": name, "beam": truth["beam"], "model": truth["damping_model"], "effect": truth["effect"],
                     "effects": effects, "truth": truth["effect_parameters"], "added": d["added"],
