@@ -371,7 +371,7 @@ def describe_default(name: str) -> str:
 
 
 def _scaled(factor: float, scale: str) -> str:
-    if not scale:
+    if not scale or factor == 0:            # a zero bound needs no scale: "low=0", not "low=0 l"
         return f"{factor:.4g}"
     return scale if factor == 1 else f"{factor:.4g} {scale}"
 

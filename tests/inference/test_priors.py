@@ -214,3 +214,11 @@ def test_prior_from_table_accepts_integers_and_names_the_default_file():
     assert prior_from_table("P", {"kind": "uniform", "low": -5, "high": 50}) == Prior("uniform", -5.0, 50.0)
     with pytest.raises(ValueError, match=r"^fit file: \[prior\.P\]"):
         prior_from_table("P", {"kind": "uniform", "low": 5})
+
+
+def test_a_zero_bound_is_written_without_its_scale():
+    """`bayesbeam models` shows the attached body's place as uniform over [0, l], not '0 l'."""
+    from bayesbeam.inference.priors import describe_default
+
+    assert describe_default("x_a") == "uniform(low=0, high=l)"
+    assert describe_default("b") == "loguniform(low=0.001 l, high=l)"
