@@ -138,6 +138,9 @@ from bayesbeam.checks.envelope import SETTLE, band_edges, mode_estimates
 from bayesbeam.checks.ppc import decay_start, era_modes, modes_in_band
 from bayesbeam.inference.likelihood import _marginal
 
+# one test of a line that does not decay, the mains effect's own (used by the map, the survey and the screen)
+from bayesbeam.physics.effects.mains_lines import PERSISTENT, line_persistence
+
 #: family-wise false-alarm level of the whole map, split over cells, per-mode tests and the delay
 ALPHA = 0.01
 #: replicated recordings (posterior draws plus noise)
@@ -150,8 +153,6 @@ PHASE_FLOOR = 3.0
 MAX_DELAY = 0.005
 #: a region within this relative distance (or two bins) of a model mode is at that mode
 MODE_TOLERANCE = 0.05
-#: a line is persistent when its amplitude in the last third is at least this fraction of the first's
-PERSISTENT = 0.8
 #: mains frequencies (Hz)
 MAINS_HZ = (50.0, 60.0)
 #: iterations of the noise floor's fixed point
@@ -730,24 +731,6 @@ def mains_harmonic(f: float, tolerance: float) -> tuple[int, float] | None:
         if k >= 1 and abs(f - k * m) <= tolerance:
             return k, m
     return None
-
-
-def line_persistence(residual: np.ndarray, proj, f_line: float) -> float:
-    """Amplitude of the residual near f_line in the last third of the window over that in the first.
-
-    The residual is band-passed to f_line +- 2 bins (2nd-order Butterworth, zero phase); the
-    Hilbert envelope is averaged over each third, leaving out one period of the pass band's width
-    at the window's ends (the filter's start-up).
-    """
-    seg = residual[proj.i0 : proj.i1]
-    df = proj.fs / proj.block
-    lo, hi = max(f_line - 2 * df, df / 2), min(f_line + 2 * df, 0.49 * proj.fs)
-    sos = signal.butter(2, [lo, hi], btype="bandpass", fs=proj.fs, output="sos")
-    env = np.abs(signal.hilbert(signal.sosfiltfilt(sos, seg)))
-    settle = int(np.ceil(proj.fs / (hi - lo)))
-    env = env[settle : len(env) - settle]
-    third = max(len(env) // 3, 1)
-    return float(np.mean(env[-third:]) / np.mean(env[:third]))
 
 
 def _mode_regions(modes, rec, proj, regions) -> list[dict]:

@@ -35,6 +35,7 @@ from bayesbeam.checks.units import unit_check
 from bayesbeam.inference.fit import DEFAULT_BAND
 from bayesbeam.io.units import SI_UNITS
 from bayesbeam.modal.eigen import natural_frequencies_hz
+from bayesbeam.physics.effects.mains_lines import analysed_span
 from bayesbeam.response.linear import PASSBAND
 from bayesbeam.response.signals import find_pulses
 
@@ -78,7 +79,7 @@ class Survey:
 
 def survey(rec) -> Survey:
     """Survey a loaded recording (module docstring); the recording is not changed."""
-    i0 = _segment_start(rec)
+    i0 = analysed_span(rec).i0
     segment = (i0, rec.n_samples)
     nominal = nominal_frequencies(rec)
     spectra, channels = {}, []
@@ -131,13 +132,6 @@ def nominal_frequencies(rec) -> np.ndarray:
     f = natural_frequencies_hz(MAX_MODES, EI=rec.beam.nominal_EI, rho_a=rec.beam.rho_a,
                                length=rec.beam.length, m_T=rec.tip.mass, J=rec.tip.rotary_inertia)
     return f[f < PASSBAND * rec.fs]
-
-
-def _segment_start(rec) -> int:
-    """First sample analysed: the start of a free decay, else the record's first."""
-    if rec.excitation.kind == "free_decay":
-        return int(np.searchsorted(rec.time, rec.excitation.start))
-    return 0
 
 
 # ---------------------------------------------------------------------------- force
@@ -207,24 +201,10 @@ def spectral_peaks(spectrum: Spectrum, floor: float, fs: float) -> np.ndarray:
     return np.sort(chosen)
 
 
-@dataclass(frozen=True)
-class _Span:
-    """The part of the record :func:`line_persistence` compares (the attributes of a projection it
-    reads): its band-pass is two bins of this span's resolution wide."""
-
-    fs: float
-    i0: int
-    i1: int
-
-    @property
-    def block(self) -> int:
-        return self.i1 - self.i0
-
-
 def mains_lines(rec, j: int, spectrum: Spectrum, peaks: np.ndarray) -> list[dict]:
     """Peaks at a multiple of 50 or 60 Hz (within two bins) that do not decay over the record."""
     df = spectrum.frequency[1]
-    span = _Span(rec.fs, _segment_start(rec), rec.n_samples)
+    span = analysed_span(rec)
     lines = []
     for f in peaks:
         harmonic = mains_harmonic(f, 2 * df)

@@ -23,6 +23,7 @@ prior on short records and multimodal (side lobes every 1/(k T)) on long ones.
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -35,7 +36,8 @@ MAINS = (50.0, 60.0)
 #: a harmonic's periodogram peak stands this many times above the median density (15 dB, as the
 #: spectral peaks of ``bayesbeam check``)
 LINE_FACTOR = 30.0
-#: a line keeps this fraction of its amplitude from the first to the last third of the record
+#: a line keeps this fraction of its amplitude from the first to the last third of the analysed span
+#: (:func:`line_persistence`), where a beam mode would decay
 PERSISTENT = 0.8
 #: a line's peak is looked for within this many bins of the harmonic
 LINE_BINS = 2
@@ -94,29 +96,75 @@ def nominal_mains(recording) -> float:
 
 def persistent_lines(recording, f_mains: float) -> tuple[int, float]:
     """(how many (channel, harmonic) pairs carry a persistent line, their summed peak ratio) at the
-    harmonics of ``f_mains`` below the DAQ passband: the whole record's periodogram peaks within
-    one bin of the harmonic and LINE_FACTOR above the median density, and the peak's density in
-    the last third of the record is at least PERSISTENT^2 of that in the first (a mode decays)."""
-    x, fs = recording.signals, recording.fs
-    n = x.shape[0] // 3
-    peak, at, floor = _harmonic_peaks(x, fs, f_mains)
-    first, last = (_harmonic_peaks(part, fs, f_mains)[0] for part in (x[:n], x[-n:]))
+    harmonics of ``f_mains`` below the DAQ passband, over the analysed span (:func:`analysed_span`):
+    the span's periodogram peaks within LINE_BINS of the harmonic and LINE_FACTOR above the median
+    density, and the line keeps PERSISTENT of its amplitude over the span (:func:`line_persistence`,
+    the test ``bayesbeam check`` applies: a mode decays)."""
+    span = analysed_span(recording)
+    x = recording.signals[span.i0 : span.i1]
+    peak, at, floor, where = _harmonic_peaks(x, span.fs, f_mains)
+    kept = np.array([[line_persistence(recording.signals[:, c], span, f) >= PERSISTENT
+                      for c, f in enumerate(row)] for row in where]).reshape(peak.shape)
     ratio = peak / floor
-    found = at & (ratio >= LINE_FACTOR) & (last >= PERSISTENT**2 * first)
+    found = at & (ratio >= LINE_FACTOR) & kept
     return int(found.sum()), float(ratio[found].sum())
+
+
+@dataclass(frozen=True)
+class Span:
+    """Samples ``i0:i1`` of a record at ``fs`` (Hz) that :func:`line_persistence` compares (the
+    attributes of a band projection it reads): its band-pass is two bins of the span's resolution wide."""
+
+    fs: float
+    i0: int
+    i1: int
+
+    @property
+    def block(self) -> int:
+        return self.i1 - self.i0
+
+
+def analysed_span(recording) -> Span:
+    """The record from the start of a free decay (the record's first sample otherwise) to its end."""
+    i0 = (int(np.searchsorted(recording.time, recording.excitation.start))
+          if recording.excitation.kind == "free_decay" else 0)
+    return Span(recording.fs, i0, recording.n_samples)
+
+
+def line_persistence(residual: np.ndarray, proj, f_line: float) -> float:
+    """Amplitude of ``residual`` near f_line in the last third of the window ``proj.i0:proj.i1`` over
+    that in the first.
+
+    The residual is band-passed to f_line +- 2 bins (2nd-order Butterworth, zero phase); the
+    Hilbert envelope is averaged over each third, leaving out one period of the pass band's width
+    at the window's ends (the filter's start-up).
+    """
+    seg = residual[proj.i0 : proj.i1]
+    df = proj.fs / proj.block
+    lo, hi = max(f_line - 2 * df, df / 2), min(f_line + 2 * df, 0.49 * proj.fs)
+    sos = signal.butter(2, [lo, hi], btype="bandpass", fs=proj.fs, output="sos")
+    env = np.abs(signal.hilbert(signal.sosfiltfilt(sos, seg)))
+    settle = int(np.ceil(proj.fs / (hi - lo)))
+    env = env[settle : len(env) - settle]
+    third = max(len(env) // 3, 1)
+    first = np.mean(env[:third])
+    return float(np.mean(env[-third:]) / first) if first > 0 else 0.0      # a silent channel holds no line
 
 
 def _harmonic_peaks(x: np.ndarray, fs: float, f_mains: float):
     """Per harmonic below the DAQ passband and channel, (K, c): the periodogram's peak density
-    within LINE_BINS of the harmonic, whether that peak lies within one bin of it, and the median
-    density below the passband (c,)."""
+    within a window of LINE_BINS + 1 bins about the harmonic, whether that peak lies within
+    LINE_BINS of it (as ``bayesbeam check``'s mains test: a grid's frequency and a DAQ's clock
+    differ by a few hundredths of a hertz), the median density below the passband (c,), and the
+    peak's frequency (K, c) in Hz."""
     f, density = signal.periodogram(x, fs, window="hann", axis=0)
     step = f[1]
     harmonics = [h for h in harmonics_in_band(f_mains, PASSBAND * fs) if h >= LINE_BINS * step]
-    peaks, at = np.zeros((len(harmonics), x.shape[1])), np.zeros((len(harmonics), x.shape[1]), bool)
+    shape = (len(harmonics), x.shape[1])
+    peaks, at, where = np.zeros(shape), np.zeros(shape, bool), np.zeros(shape)
     for i, h in enumerate(harmonics):
-        near = np.flatnonzero(np.abs(f - h) <= LINE_BINS * step)
+        near = np.flatnonzero(np.abs(f - h) <= (LINE_BINS + 1) * step)
         top = near[np.argmax(density[near], axis=0)]
-        peaks[i], at[i] = density[top, np.arange(x.shape[1])], np.abs(f[top] - h) <= step
+        peaks[i], at[i], where[i] = density[top, np.arange(x.shape[1])], np.abs(f[top] - h) <= LINE_BINS * step, f[top]
     band = (f > 0) & (f < PASSBAND * fs)
-    return peaks, at, np.maximum(np.median(density[band], axis=0), np.finfo(float).tiny)
+    return peaks, at, np.maximum(np.median(density[band], axis=0), np.finfo(float).tiny), where
