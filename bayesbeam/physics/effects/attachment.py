@@ -49,23 +49,24 @@ from typing import ClassVar
 
 import numpy as np
 
-from bayesbeam.physics.effects.base import Effect
-from bayesbeam.physics.effects.base_support import DAMPING_RANGE, fundamental
+from bayesbeam.physics.effects.base import Effect, oscillator
+from bayesbeam.physics.effects.base_support import ABSENT_DAMPING, fundamental
 
 #: the absent body's own frequency, in units of the nominal clamped beam's fundamental f_1
 ABSENT_RATIO = 0.01
 #: the default prior's range of the body's mass, in units of the beam's mass rho A l
 #: (:mod:`bayesbeam.inference.priors`)
 MASS_RANGE = (1e-3, 1.0)
-#: the absent body's mass (in rho A l) and link damping ratio: the priors' medians
-ABSENT_MASS, ABSENT_DAMPING = float(np.sqrt(np.prod(MASS_RANGE))), float(np.sqrt(np.prod(DAMPING_RANGE)))
+#: the absent body's mass (in rho A l): the prior's median (its link's damping ratio is the base's
+#: ABSENT_DAMPING, the median of the same prior)
+ABSENT_MASS = float(np.sqrt(np.prod(MASS_RANGE)))
 
 
 def link_constants(values) -> dict[str, float]:
     """The body's mass m_a (kg), the link's spring k_a (N/m) and dashpot c_a (N s/m) from the fitted
     f_a, m_a, zeta_a."""
-    m_a, omega_a = values["m_a"], 2 * np.pi * values["f_a"]
-    return {"m_a": m_a, "k_a": m_a * omega_a**2, "c_a": 2 * values["zeta_a"] * m_a * omega_a}
+    k_a, c_a = oscillator(values["m_a"], values["f_a"], values["zeta_a"])
+    return {"m_a": values["m_a"], "k_a": k_a, "c_a": c_a}
 
 
 class Attachment(Effect):

@@ -115,6 +115,14 @@ def per_sensor(single: str, pattern: str, sensor_names) -> tuple[str, ...]:
     return (single,) if len(names) == 1 else tuple(pattern.format(n) for n in names)
 
 
+def oscillator(mass: float, frequency: float, damping_ratio: float) -> tuple[float, float]:
+    """(k, c) of a mass (kg) on a spring and dashpot of natural frequency ``frequency`` (Hz) and
+    ``damping_ratio``: k = m (2 pi f)^2 (N/m), c = 2 zeta m 2 pi f (N s/m). An attached body and a
+    translating base are fitted this way (their frequency and damping ratio, not k and c)."""
+    omega = 2 * np.pi * frequency
+    return mass * omega**2, 2 * damping_ratio * mass * omega
+
+
 def octave(x: float) -> float:
     """The power of two nearest to x on a log scale (within a factor sqrt(2)), 0 for x <= 0."""
     return 0.0 if x <= 0 else float(2.0 ** np.round(np.log2(x)))

@@ -65,7 +65,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from bayesbeam.physics.effects.base import Effect, octave
+from bayesbeam.physics.effects.base import Effect, octave, oscillator
 
 #: the absent base's natural frequency, in units of the nominal clamped beam's fundamental f_1
 ABSENT_RATIO = 1e4
@@ -88,8 +88,8 @@ def fundamental(beam) -> float:
 
 def base_constants(values) -> dict[str, float]:
     """The base's mass m_b (kg), spring k_b (N/m) and dashpot c_b (N s/m) from the fitted f_b, m_b, zeta_b."""
-    m_b, omega_b = values["m_b"], 2 * np.pi * values["f_b"]
-    return {"m_b": m_b, "k_b": m_b * omega_b**2, "c_b": 2 * values["zeta_b"] * m_b * omega_b}
+    k_b, c_b = oscillator(values["m_b"], values["f_b"], values["zeta_b"])
+    return {"m_b": values["m_b"], "k_b": k_b, "c_b": c_b}
 
 
 class BaseSupport(Effect):
