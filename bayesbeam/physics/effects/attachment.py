@@ -36,8 +36,8 @@ and independent priors on k_a and c_a would span many decades to reach every bod
 vanishes as f_a -> 0 (the body hangs free of the beam) or m_a -> 0; at m_a = 0 it adds no degree of
 freedom. Its ``absent`` point is f_a = :data:`ABSENT_RATIO` = 0.01 times the nominal clamped beam's
 fundamental f_1 (the bottom of f_a's prior; there the link's stiffness moves mode m by about
-:math:`\tfrac12 (f_a/f_m)^2 m_a\varphi_m(x_a)^2`, under 1e-5 of mode 1 for a body of the beam's
-own mass at the tip), with m_a and zeta_a at their priors' medians and the body at the tip, where
+:math:`\tfrac12 (f_a/f_m)^2 m_a\varphi_m(x_a)^2`: 6e-6 of mode 1 for the absent body at the tip,
+2e-4 for one of the beam's own mass), with m_a and zeta_a at their priors' medians and the body at the tip, where
 every mode sees it: the diagnosis's one-parameter screen scans f_a from there with the others held,
 so that its family runs from no body through a body with a mode of its own in the band to a point
 mass riding at the tip (:mod:`bayesbeam.checks.signatures`).
