@@ -19,8 +19,8 @@ measures it:
 * ``ref_null1``, ``ref_null2``: nothing concealed (two noise seeds).
 
 Each truth.json names the concealed effects and their parameters by the names the diagnosis fits
-(a base's f_b, m_b, zeta_b from the simulated m_b, k_b, c_b; a body's f_a, m_a, zeta_a, x_a from its
-m_a, k_a, c_a, x_a).
+(a base's f_b, m_b, zeta_b and a body's f_a, m_a, zeta_a, x_a, from which the simulator's k and c
+are made).
 """
 from __future__ import annotations
 
@@ -46,31 +46,32 @@ FS, DURATION, NOISE = 1024.0, 3.0, Noise(sensor=0.02, force=0.005)
 BEAM_MASS = BEAM.rho_a * BEAM.length
 
 
-def _body() -> dict:
-    m_a, omega_a, zeta_a = 0.03 * BEAM_MASS, 2 * np.pi * 45.0, 0.02
-    return {"m_a": m_a, "k_a": m_a * omega_a**2, "c_a": 2 * zeta_a * m_a * omega_a, "x_a": 0.6}
+#: the attached body and the base by the names the diagnosis fits (frequency Hz, mass kg, damping ratio)
+BODY = {"f_a": 45.0, "m_a": 0.03 * BEAM_MASS, "zeta_a": 0.02, "x_a": 0.6}
+BASE = {"f_b": 80.0, "m_b": 5.0, "zeta_b": 0.05}
 
 
-def _body_truth(body: dict) -> dict:
-    omega = np.sqrt(body["k_a"] / body["m_a"])
-    return {"f_a": float(omega / (2 * np.pi)), "m_a": body["m_a"], "zeta_a": float(body["c_a"] / (2 * body["m_a"] * omega)),
-            "x_a": body["x_a"]}
+def _spring_and_dashpot(mass: float, frequency: float, damping_ratio: float) -> tuple[float, float]:
+    """(k, c) the simulator takes for a mass on a spring and dashpot of this natural frequency and
+    damping ratio: k = m omega^2, c = 2 zeta m omega."""
+    omega = 2 * np.pi * frequency
+    return mass * omega**2, 2 * damping_ratio * mass * omega
 
 
-def _base() -> dict:
-    m_b, omega_b, zeta_b = 5.0, 2 * np.pi * 80.0, 0.05
-    return {"m_b": m_b, "k_b": m_b * omega_b**2, "c_b": 2 * zeta_b * m_b * omega_b}
+def _simulated_body() -> dict:
+    k_a, c_a = _spring_and_dashpot(BODY["m_a"], BODY["f_a"], BODY["zeta_a"])
+    return {"m_a": BODY["m_a"], "k_a": k_a, "c_a": c_a, "x_a": BODY["x_a"]}
 
 
-def _base_truth(base: dict) -> dict:
-    omega = np.sqrt(base["k_b"] / base["m_b"])
-    return {"f_b": float(omega / (2 * np.pi)), "m_b": base["m_b"], "zeta_b": float(base["c_b"] / (2 * base["m_b"] * omega))}
+def _simulated_base() -> dict:
+    k_b, c_b = _spring_and_dashpot(BASE["m_b"], BASE["f_b"], BASE["zeta_b"])
+    return {"m_b": BASE["m_b"], "k_b": k_b, "c_b": c_b}
 
 
 #: case -> (simulated effects, {effect: {parameter: truth}} in the diagnosis's names, seed)
 CASES = {
-    "attachment": (_body(), {"attachment": _body_truth(_body())}, 21),
-    "base_support": (_base(), {"base_support": _base_truth(_base())}, 22),
+    "attachment": (_simulated_body(), {"attachment": BODY}, 21),
+    "base_support": (_simulated_base(), {"base_support": BASE}, 22),
     "high_pass": ({"f_hp": 1.0}, {"high_pass": {"f_hp": 1.0}}, 23),
     "mains_lines": ({}, {"mains_lines": {"f_mains": 50.0}}, 24),
     "clamp_loss": ({"k_theta": 4000.0, "c_theta": 0.8},
