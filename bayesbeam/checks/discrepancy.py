@@ -139,7 +139,7 @@ from bayesbeam.checks.ppc import decay_start, era_modes, modes_in_band
 from bayesbeam.inference.likelihood import _marginal
 
 # one test of a line that does not decay, the mains effect's own (used by the map, the survey and the screen)
-from bayesbeam.physics.effects.mains_lines import PERSISTENT, line_persistence
+from bayesbeam.physics.effects.mains_lines import MAINS, PERSISTENT, line_persistence
 
 #: family-wise false-alarm level of the whole map, split over cells, per-mode tests and the delay
 ALPHA = 0.01
@@ -153,8 +153,6 @@ PHASE_FLOOR = 3.0
 MAX_DELAY = 0.005
 #: a region within this relative distance (or two bins) of a model mode is at that mode
 MODE_TOLERANCE = 0.05
-#: mains frequencies (Hz)
-MAINS_HZ = (50.0, 60.0)
 #: iterations of the noise floor's fixed point
 FLOOR_ITERATIONS = 20
 #: a region's misfit must reach this share of its channel's signal to count toward "unexplained"
@@ -726,7 +724,7 @@ def _line_note(f_line, c, lik, s: Setting, params) -> str:
 
 def mains_harmonic(f: float, tolerance: float) -> tuple[int, float] | None:
     """(k, mains frequency) when ``f`` lies within ``tolerance`` (Hz) of k x 50 or k x 60 Hz, else None."""
-    for m in MAINS_HZ:
+    for m in MAINS:
         k = round(f / m)
         if k >= 1 and abs(f - k * m) <= tolerance:
             return k, m

@@ -12,10 +12,10 @@ likelihood (:mod:`bayesbeam.inference.likelihood`), never sampled: this module g
 k f_mains at or below the top of the fitted band.
 
 f_mains is fixed at the nominal mains frequency (a default, not a sampled parameter): ``[setup]
-mains_hz`` where beam.toml states it, else 50 or 60 Hz by which has harmonics standing
-:data:`LINE_FACTOR` above the noise floor in both the first and the last third of the record with
-:data:`PERSISTENT` of their amplitude kept (a beam mode decays; the test ``bayesbeam check``
-applies), else 50 Hz. Grids hold their frequency within +-0.2 Hz (typically +-0.05 Hz); a shift
+mains_hz`` where beam.toml states it, else 50 or 60 Hz by which has more harmonics standing
+:data:`LINE_FACTOR` above the noise floor that keep :data:`PERSISTENT` of their amplitude over the
+record from a free decay's start (:func:`persistent_lines`; a beam mode decays; the test
+``bayesbeam check`` applies), else 50 Hz. Grids hold their frequency within +-0.2 Hz (typically +-0.05 Hz); a shift
 of 0.02 Hz turns the fundamental by 0.08 cycles over a 4 s record, so the columns at the nominal
 frequency carry the line, and sampling f_mains would buy little for a posterior that is its
 prior on short records and multimodal (side lobes every 1/(k T)) on long ones.
@@ -41,7 +41,8 @@ LINE_FACTOR = 30.0
 PERSISTENT = 0.8
 #: a line's peak is looked for within this many bins of the harmonic
 LINE_BINS = 2
-#: the top of the record's spectrum searched for harmonics, as a fraction of fs (the DAQ passband)
+#: the top of the record's spectrum searched for harmonics, as a fraction of fs: the DAQ passband
+#: (bayesbeam.response.linear.PASSBAND, a layer above this one)
 PASSBAND = 0.4
 
 
@@ -103,10 +104,10 @@ def persistent_lines(recording, f_mains: float) -> tuple[int, float]:
     span = analysed_span(recording)
     x = recording.signals[span.i0 : span.i1]
     peak, at, floor, where = _harmonic_peaks(x, span.fs, f_mains)
-    kept = np.array([[line_persistence(recording.signals[:, c], span, f) >= PERSISTENT
-                      for c, f in enumerate(row)] for row in where]).reshape(peak.shape)
     ratio = peak / floor
-    found = at & (ratio >= LINE_FACTOR) & kept
+    found = at & (ratio >= LINE_FACTOR)
+    for k, c in zip(*np.nonzero(found)):          # the band-pass envelope only where a peak stands
+        found[k, c] = line_persistence(recording.signals[:, c], span, where[k, c]) >= PERSISTENT
     return int(found.sum()), float(ratio[found].sum())
 
 
