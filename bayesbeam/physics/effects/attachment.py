@@ -79,6 +79,7 @@ class Attachment(Effect):
                    "cable clamp, an attached instrument): its own degree of freedom, natural frequency f_a, link "
                    "damping ratio zeta_a (k_a = m_a (2 pi f_a)^2, c_a = 2 zeta_a m_a 2 pi f_a)")
     extends = True
+    place = "x_a"
 
     def bind(self, recording) -> Attachment:
         """The effect for ``recording``: absent at f_a = ABSENT_RATIO f_1, the body at the tip."""

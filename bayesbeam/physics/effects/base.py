@@ -43,6 +43,9 @@ class Effect(Component):
     #: True when the effect brings degrees of freedom of its own (an attached body's motion),
     #: appended after the beam's by :meth:`extend`
     extends: bool = False
+    #: the parameter that places the effect on the span (m from the clamp), which the screen scans
+    #: over places as well as the first parameter (:mod:`bayesbeam.checks.signatures`); None: no place
+    place: str | None = None
     #: parameter values at which the effect vanishes (the optimiser's global search starts there:
     #: an effect's prior median, such as a tension of several buckling loads, is no neutral guess)
     absent: ClassVar[dict[str, float]] = {}
