@@ -41,6 +41,12 @@ its stated value (0 where none is stated) with every other sensor's mass as stat
 says at which sensor a mass is missing, whatever order the ``[[sensor]]`` tables list them in.
 ``channel_gain`` is screened the same way, a gain g_<s> per sensor with the others at 0.
 
+An attached body (``attachment``) is screened the same way by its own frequency f_a, its mass and
+link damping held at their priors' medians, and by its place (:attr:`Effect.place`): the scan in
+f_a is repeated at :data:`PLACES` places along the span and the best kept, which is where the fit
+starts (its p-value counts two parameters). The body's pattern over the modes is phi_m(x_a)^2,
+and a local search from the tip does not cross the mode shapes' nodes to reach it.
+
 A support resonance (``base_support``) is screened by its frequency f_b, the base's mass and
 damping ratio held where its ``absent`` puts them (their priors' medians, 3.16 rho A l and 0.017):
 the grid over f_b's five decades walks the base's mode from below mode 1 through the band to far
@@ -72,7 +78,7 @@ both signs only for the axial load):
 
 Scores. The sds come from S replicates, so chi-square statistics are referred to F distributions:
 :math:`\chi^2_0/\nu \sim F(\nu, S-1)` (:math:`\nu` = features minus rank of N) says whether there is
-anything the baseline cannot absorb; :math:`\Delta\chi^2_e \sim F(1, S-1)` (one added parameter)
+anything the baseline cannot absorb; :math:`\Delta\chi^2_e \sim F(1, S-1)` (one added parameter; two for a placed effect)
 gives each effect's p-value. An effect is *supported* when that p-value is below :data:`ALPHA`
 over the number of candidates (Bonferroni) and its value lies inside the prior. Also reported:
 the fraction explained :math:`\Delta\chi^2_e/\chi^2_0`, the 90 % interval (:math:`\chi^2_e \le \min +

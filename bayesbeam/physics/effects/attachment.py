@@ -38,9 +38,10 @@ freedom. Its ``absent`` point is f_a = :data:`ABSENT_RATIO` = 0.01 times the nom
 fundamental f_1 (the bottom of f_a's prior; there the link's stiffness moves mode m by about
 :math:`\tfrac12 (f_a/f_m)^2 m_a\varphi_m(x_a)^2`: 6e-6 of mode 1 for the absent body at the tip,
 2e-4 for one of the beam's own mass), with m_a and zeta_a at their priors' medians and the body at the tip, where
-every mode sees it: the diagnosis's one-parameter screen scans f_a from there with the others held,
-so that its family runs from no body through a body with a mode of its own in the band to a point
-mass riding at the tip (:mod:`bayesbeam.checks.signatures`).
+every mode sees it. The diagnosis's screen scans f_a from there with m_a and zeta_a held, so that
+its family runs from no body through a body with a mode of its own in the band to a point mass
+riding on the beam, and repeats the scan at places along the span (:attr:`place`,
+:mod:`bayesbeam.checks.signatures`).
 """
 from __future__ import annotations
 
