@@ -54,13 +54,14 @@ order: 0.05% at U = 4).
 Friction: exact stick-slip, events located inside the steps
 -----------------------------------------------------------
 * *Slip* (``g = -F_c sign(v_tip)``, constant): closed-form modal propagation; the tip velocity
-  over a look-ahead window of nodes is one matrix-vector product.
+  at each node of a window (up to :data:`_WINDOW_MAX` nodes) is one row of a table times the
+  state at the window's start.
 * *Stick* (tip held): the beam with its tip held at the stuck deflection is an exact reduced
   linear system (basis :math:`T` of :math:`e^\perp`, the tip deflection along the static shape
   :math:`\psi = K^{-1}e/(e^TK^{-1}e)`). Its forced response and the force holding its tip (the
   friction demand) come once from the FFT like the linear response; a stick phase is the
-  closed-form free propagation of the difference, and the demand over a window of nodes is
-  again one product. Each step's force is represented by its exact mean and first moment.
+  closed-form free propagation of the difference, and the demand at each node of a window is
+  again one table row times the state. Each step's force is represented by its exact mean and first moment.
 * Events are located inside the step: where the tip velocity reaches zero, or the demand
   reaches :math:`\pm F_c`, by a safeguarded Newton iteration on the exact intra-step solution
   (the linear signals interpolated by 6-point Lagrange polynomials on the nodes). At a zero of
@@ -70,9 +71,13 @@ Friction: exact stick-slip, events located inside the steps
   exactly; the sub-step shape of the force enters the output through the step's mean and
   first moment. Default U = 8: on a hammer test with hundreds of events, 0.14% of the
   friction effect's RMS.
-* The sliding phases, with every reversal inside them, run in compiled code
-  (:func:`bayesbeam.response._kernels.friction_slide`); the held phases and the conversions
-  between the two states, a few per stick, in numpy.
+* The whole event loop runs in compiled code, one call per simulation
+  (:func:`bayesbeam.response._kernels.friction_run`): the sliding phases with every reversal
+  inside them (:func:`~bayesbeam.response._kernels.friction_slide`), the held phases, the
+  conversions between the two states and the location of the events. A forced record whose tip
+  leaves a hold or sticks again takes a second call: the held-minus-free forced response those
+  conversions read is built (one FFT) only for such a history. Python sets up the modes and
+  window tables before, and the output stage after.
 
 A force held constant over a step and chosen to null the tip velocity at its end (Moreau's
 time-stepping on the exact exponential) would be unstable here: with :math:`\omega h \gg 1`
@@ -93,7 +98,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
-from scipy import fft, linalg, special
+from scipy import fft, linalg
 
 from bayesbeam.physics.effects.dry_friction import DryFriction
 from bayesbeam.physics.effects.quadratic_drag import QuadraticDrag
@@ -114,9 +119,10 @@ DRAG_RTOL = 1e-8
 _DRAG_BLOCK = 256
 #: fixed-point sweeps of a drag block before it is shrunk (it is, sooner, when they stall)
 _DRAG_SWEEPS = 60
-_SINC_HALF, _SINC_BETA = 16, 16.0
-_I0_BETA = float(special.i0(_SINC_BETA))
-_WINDOW_MIN, _WINDOW_MAX = 16, 1024
+#: nodes between re-basings of the closed-form propagation in held and sliding phases (rows of
+#: the window tables): the compiled loops stop at the first event whatever the window, so a
+#: longer one saves nothing there and costs table rows built per simulation
+_WINDOW_MIN, _WINDOW_MAX = 16, 64
 
 
 # ----------------------------------------------------------------------------------- public
@@ -341,27 +347,6 @@ class _Plant:
         x = _cyclic_take(fft.irfft(spectrum.T, factor * self.grid.n_fft), start, count)
         return (x * (factor * np.exp(self.grid.sigma * t))).T, start * step, step
 
-    @staticmethod
-    def at(table, t: float) -> np.ndarray:
-        """Row of a :meth:`coarse` table at time t by a 32-tap Kaiser-windowed sinc (the signal
-        is band-limited to 0.51 fs, a quarter of the table's rate: error ~1e-8 of its peak)."""
-        values, t0, step = table
-        x = (t - t0) / step
-        k0 = int(np.floor(x)) - _SINC_HALF + 1
-        u = x - np.arange(k0, k0 + 2 * _SINC_HALF)
-        w = np.sinc(u) * special.i0(_SINC_BETA * np.sqrt(np.maximum(1 - (u / _SINC_HALF) ** 2, 0)))
-        return (w / _I0_BETA) @ values[k0:k0 + 2 * _SINC_HALF]
-
-    def at_time(self, spectrum: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Row at time t of a signal given on the grid's bins (n_bins, ch), and of its rate: the
-        band-limited interpolant that :meth:`fine` samples, summed over the bins (for a signal
-        read once; :meth:`coarse` for one read at many times)."""
-        grid = self.grid
-        kernel = grid.delay(-t)                      # e^{s t} on every bin, the window's e^{sigma t} in it
-        kernel[0] *= 0.5
-        sums = np.stack([kernel, kernel * grid.s]) @ spectrum         # the rate's spectrum is s X
-        return tuple((2.0 / grid.n_fft) * sums.real)
-
     def linear_spectrum(self, C: np.ndarray, order: int = 0) -> np.ndarray:
         """Spectrum of C w^(order) of the linear response to the input, (n_bins, n_rows)."""
         h = self.system.transfer(self.s_in, C, self.b[:, None])[:, :, 0]
@@ -449,26 +434,7 @@ def _compose(coef: np.ndarray, offset: float) -> np.ndarray:
 #: _SHIFTED[o] (6, 6): the six node values of a signal -> its interpolant on the step at offset o
 #: from the first of them, in ascending powers of theta (:func:`_kernels.step_poly`)
 _SHIFTED = np.array([[_compose(_LAGRANGE[j], off) for j in range(6)] for off in range(6)])
-_NO_POLY = _NO_RECORD = np.zeros(0)
-
-
-class _IntraStep:
-    """theta -> sign (Re sum_j amp_j e^{mu_j (theta - a)} + const + poly(theta)) and d/dtheta.
-
-    The exact free-part solution inside a step (``mu`` = lambda h) plus the interpolated linear
-    signal ``poly`` (ascending coefficients, or None); used for locating events. Evaluated, and
-    its root found, in compiled code (:func:`_kernels.intra_step`, :func:`_kernels.intra_step_root`).
-    """
-
-    def __init__(self, mu, amp, const, poly, a, sign):
-        self.args = (mu, amp, amp * mu, float(const), _NO_POLY if poly is None else poly, float(a), float(sign))
-
-    def __call__(self, theta: float) -> tuple[float, float]:
-        return _kernels.intra_step(*self.args, float(theta))
-
-    def root(self, lo: float, hi: float, f_lo: float, f_hi: float, tol: float = 1e-9) -> float:
-        """Root in [lo, hi] given f(lo) = f_lo > 0 >= f(hi) = f_hi (:func:`_kernels.intra_step_root`)."""
-        return _kernels.intra_step_root(*self.args, float(lo), float(hi), float(f_lo), float(f_hi), tol)
+_NO_RECORD = np.zeros(0)
 
 
 #: most events handled inside one fine step before the step is finished without further checks
@@ -513,7 +479,7 @@ class _Friction:
         self._tables = (pv, qv, pu, qu, self.epow, self.spow)
         self._free = np.stack([p.E, self.lam_h, self.beta_lam, self.cv, self.cvb, self.cv_lam, self.cu, self.gamma_h])
         # the beam with its tip held: w = T q + psi u_tip, T spanning the null space of e
-        self.T = linalg.null_space(e[None, :])
+        self.T = np.ascontiguousarray(linalg.null_space(e[None, :]))
         kinv_e = np.linalg.solve(K, e)
         self.k_tip = 1.0 / float(e @ kinv_e)
         self.psi = kinv_e * self.k_tip
@@ -536,12 +502,15 @@ class _Friction:
         self.pg_mean = _real_rows(self.cg * self.er_pow[:-1] * mean)
         self.pg_moment = _real_rows(self.cg * self.er_pow[:-1] * moment)
         self._linear_signals()
+        # what the compiled event loop reads (:func:`_kernels.friction_run`)
+        self._held = (self.lr_h, self.cg, self.k_tip, self.er_pow, self.pg, self.pg_mean, self.pg_moment,
+                      np.ascontiguousarray(self._lin_moments))
+        self._conv = (V, Vi, Vr, Vri, T, np.ascontiguousarray(T.T), self.psi, self.Minv_e, np.ascontiguousarray(e))
 
     # ------------------------------------------------------------------ linear signals
     def _linear_signals(self):
         """Tip velocity, acceleration and held-tip force of the forced responses, at the nodes."""
         p, e, n = self.p, self.e, self.p.n
-        self._diff = self._diff_spec = None
         if not p.forced:                   # a release: no forced response
             self.lin = np.zeros((p.n_nodes, 4))
             self._lin_moments = np.zeros((2, p.n_nodes))
@@ -555,7 +524,7 @@ class _Friction:
         self._held_spec = qc
         tip = p.linear_spectrum(e[None, :])
         # columns: v_lin, a_lin, held force, u_lin at the tip
-        self.lin = p.fine(np.hstack([s * tip, s**2 * tip, demand[:, None], tip]))
+        self.lin = np.ascontiguousarray(p.fine(np.hstack([s * tip, s**2 * tip, demand[:, None], tip])))
         # mean and first moment over every step of the held beam's forced force, from the cubic
         # through the four nearest nodes (clamped at the ends)
         col = self.lin[:, 2]
@@ -563,164 +532,44 @@ class _Friction:
         self._lin_moments = [w[0] * v[:-3] + w[1] * v[1:-2] + w[2] * v[2:-1] + w[3] * v[3:]
                              for w in _STEP_MOMENTS]
 
-    def _lin_at(self, k: int, theta: float) -> np.ndarray:
-        """The forced signals (``lin``'s row) at node k + theta by 6-point Lagrange interpolation."""
-        if theta == 0.0:
-            return self.lin[k]
-        return _kernels.lagrange_row(self.lin, k, theta, _LAGRANGE)
-
     def diff_spectrum(self) -> np.ndarray:
-        """Spectrum (n_bins, n) of w_held - w_free, the held minus the free forced response,
-        formed at its first use: a history that never leaves its initial hold nor sticks again
-        never needs it."""
-        if self._diff_spec is None:
-            self._diff_spec = self._held_spec @ self.T.T - self.p.linear_spectrum(np.eye(self.p.n))
-        return self._diff_spec
+        """Spectrum (n_bins, n) of w_held - w_free, the held minus the free forced response."""
+        return self._held_spec @ self.T.T - self.p.linear_spectrum(np.eye(self.p.n))
 
-    def diff_table(self) -> tuple:
-        """:meth:`diff_spectrum` and its rate tabulated at dt/2 (:meth:`_Plant.coarse`), at the
-        first use."""
-        if self._diff is None:
-            spectrum = self.diff_spectrum()
-            self._diff = self.p.coarse(np.hstack([spectrum, self.p.s_in[:, None] * spectrum]))
-        return self._diff
+    def _diff(self) -> tuple:
+        """The kernel's held-minus-free response of a forced record: :meth:`diff_spectrum`, the
+        bins, and the response with its rate tabulated at dt/2 (:meth:`_Plant.coarse`); and
+        ``timing`` (see :func:`_kernels.friction_run`) with the table's start and step. Built at
+        the first conversion that needs it: a history that never leaves its initial hold nor
+        sticks again never does."""
+        p, spectrum = self.p, self.diff_spectrum()
+        table, t0, step = p.coarse(np.hstack([spectrum, p.s_in[:, None] * spectrum]))
+        timing = np.array([1.0, p.t_start, p.h, t0, step, p.grid.n_fft])
+        return (spectrum, p.s_in, np.ascontiguousarray(table)), timing
 
-    def _diff_at(self, k: int, theta: float, exact: bool = False):
-        """(w_held - w_free, its rate) of the forced responses at node k + theta.
-
-        Zero for a release and at node 0 of a forced record, where both are still at rest
-        (:data:`MARGIN` samples before the first sample). A stick's entry and exit must read
-        the same representation (their errors, ~1e-8 of the peak, do not cancel otherwise):
-        ``exact`` (summed over the bins, :meth:`_Plant.at_time`) for the end of the hold that
-        starts at node 0, whose entry is that exact zero; every other conversion from
-        :meth:`diff_table`, built at the first of them.
-        """
-        p, n = self.p, self.p.n
-        if not p.forced or k + theta == 0.0:
-            return np.zeros(n), np.zeros(n)
-        t = p.t_start + (k + theta) * p.h
-        if exact:
-            return p.at_time(self.diff_spectrum(), t)
-        x = p.at(self.diff_table(), t)
-        return x[:n], x[n:]
-
-    # ------------------------------------------------------------------ state conversions
-    def _to_held(self, k: int, theta: float, z: np.ndarray):
-        """Held-tip state (y, U_s) at node k + theta from the free-part modal state z.
-
-        The tip velocity left (zero at a located crossing, round-off otherwise) is removed by
-        the constraint's impulse, returned as the third value (N s).
-        """
-        p, e = self.p, self.e
-        lin = self._lin_at(k, theta)
-        x = (p.V @ z).real
-        w, wd = x[: p.n], x[p.n:]
-        impulse = -(lin[0] + e @ wd) / self.mu
-        wd = wd + self.Minv_e * impulse
-        u_s = lin[3] + e @ w
-        dw, dwd = self._diff_at(k, theta)
-        q = self.T.T @ (w - self.psi * u_s - dw)
-        qd = self.T.T @ (wd - dwd)
-        return self.Vri @ np.concatenate([q, qd]), u_s, impulse
-
-    def _to_free(self, k: int, theta: float, y: np.ndarray, u_s: float, exact: bool = False) -> np.ndarray:
-        """Free-part modal state z at node k + theta from the held-tip state (``exact``: :meth:`_diff_at`)."""
-        dw, dwd = self._diff_at(k, theta, exact)
-        qq = (self.Vr @ y).real
-        m = self.T.shape[1]
-        w = self.T @ qq[:m] + self.psi * u_s + dw
-        wd = self.T @ qq[m:] + dwd
-        return self.p.Vi @ np.concatenate([w, wd])
-
-    # ------------------------------------------------------------------ one step with events
-    def _hold_step(self, k: int, a: float, st: dict) -> tuple[int, float]:
-        """Advance the held tip from node k + a: to node k + 1, returned as (k + 1, 0), or to the
-        instant theta where the demand leaves +-F_c and the tip starts to slide, returned as
-        (k, theta) with ``st`` converted to the sliding state."""
-        F = self.F_c
-        y, u_s, g_a = st["y"], st["u_s"], st["g"]
-        y_b = np.exp(self.lr_h * (1.0 - a)) * y
-        g_b = self.lin[k + 1, 2] + self.k_tip * u_s + (self.cg @ y_b).real
-        if abs(g_b) <= F or st["n"] >= _MAX_EVENTS_PER_STEP - 1:
-            _kernels.accumulate(self.c0, self.c1, k, a, 1.0, g_a, g_b)
-            st["y"], st["g"] = y_b, g_b
-            if self.keep:
-                self.rec_u[k + 1] = u_s
-            return k + 1, 0.0
-        side = np.sign(g_b)
-        # F - side * demand(theta), decreasing through zero at the exit
-        f = _IntraStep(self.lr_h, self.cg * y, self.k_tip * u_s - side * F,
-                       _kernels.step_poly(self.lin[:, 2], k, _SHIFTED), a, -side)
-        f_a = F - side * g_a
-        theta = a if f_a <= 0 else f.root(a, 1.0, f_a, F - side * g_b)
-        y = np.exp(self.lr_h * (theta - a)) * y
-        _kernels.accumulate(self.c0, self.c1, k, a, theta, g_a, side * F)
-        st.update(z=self._to_free(k, theta, y, u_s, exact=self._initial_hold), sgn=-side, gam=side * F, v=0.0,
-                  slip=True, n=st["n"] + 1)
-        self._initial_hold = False
-        self.counts[1] += 1
-        return k, theta
-
-    def _slide(self, k: int, a: float, st: dict) -> tuple[int, float]:
-        """Advance the sliding tip from node k + a until it sticks (at the returned k + theta, with
-        ``st`` converted to the held state) or reaches the last node (:func:`_kernels.friction_slide`)."""
-        rec = (self.rec_u, self.rec_v) if self.keep else (_NO_RECORD, _NO_RECORD)
-        status, k, a, st["n"], st["z"], st["gam"], st["sgn"], st["v"], demand = _kernels.friction_slide(
-            k, a, st["n"], st["z"], st["gam"], st["sgn"], st["v"], self.p.n_nodes - 1, self._free,
-            self._tables, self.lin, _LAGRANGE, _SHIFTED, self.F_c, self.mu, self.c0, self.c1, self.counts,
-            self.keep, *rec, _MAX_EVENTS_PER_STEP)
-        if status == _kernels.STUCK:
-            st["y"], st["u_s"], _ = self._to_held(k, a, st["z"])
-            st.update(g=demand, slip=False)
-        return k, a
-
-    # ------------------------------------------------------------------ the event loop
     def run(self) -> np.ndarray:
-        p, F, lin = self.p, self.F_c, self.lin
+        """The stick-slip history in compiled code (:func:`_kernels.friction_run`): one call, or
+        two for a forced record whose tip leaves a hold or sticks (the second after building
+        :meth:`_diff`). Returns per step the force's mean and 12 x first moment (N)."""
+        p, n = self.p, self.p.n
         last = p.n_nodes - 1
-        self.c0, self.c1 = np.zeros(last), np.zeros(last)
-        self.counts = np.zeros(4, dtype=np.int64)          # stick, slip, reversal, tangency
-        if self.keep:
-            self.rec_u, self.rec_v = np.zeros(p.n_nodes), np.zeros(p.n_nodes)
-        y, u_s, _ = self._to_held(0, 0.0, p.Vi @ p.x0)
-        st = {"slip": False, "y": y, "u_s": u_s, "g": lin[0, 2] + self.k_tip * u_s + (self.cg @ y).real,
-              "n": 0, "v": 0.0}
-        if abs(st["g"]) > F:                              # the initial state cannot be held
-            st.update(z=self._to_free(0, 0.0, y, u_s), sgn=-np.sign(st["g"]), slip=True, v=0.0)
-            st["gam"] = -F * st["sgn"]
-        self._initial_hold = not st["slip"]               # the tip held since node 0 (see _diff_at)
-        k, a, window = 0, 0.0, _WINDOW_MIN
-        if self.keep:
-            self.rec_u[0] = u_s
-        while k < last:
-            if st["slip"]:
-                k, a = self._slide(k, a, st)
-                continue
-            if a == 0.0:                                  # held: full steps by the window tables
-                L = min(window, last - k)
-                st["n"] = 0
-                y, u_s = st["y"], st["u_s"]
-                g = self.k_tip * u_s + self.pg[: L + 1] @ _stack(y) + lin[k:k + L + 1, 2]
-                over = np.flatnonzero(np.abs(g[1:]) > F)
-                j = L if over.size == 0 else int(over[0])         # full steps before the exit step
-                if j:
-                    ys = _stack(y)
-                    self.c0[k:k + j] = self.k_tip * u_s + self.pg_mean[:j] @ ys + self._lin_moments[0][k:k + j]
-                    self.c1[k:k + j] = self.pg_moment[:j] @ ys + self._lin_moments[1][k:k + j]
-                if self.keep:
-                    self.rec_u[k:k + j + 1] = u_s
-                st["y"], st["g"] = self.er_pow[j] * y, g[j]
-                k += j
-                if j == L:
-                    window = min(2 * window, _WINDOW_MAX)
-                    continue
-                window = min(_WINDOW_MAX, max(_WINDOW_MIN, 2 * j))
-            k, a = self._hold_step(k, a, st)
-        z = st["z"] if st["slip"] else self._to_free(last, 0.0, st["y"], st["u_s"], exact=self._initial_hold)
+        c0, c1 = np.zeros(last), np.zeros(last)
+        counts = np.zeros(4, dtype=np.int64)              # stick, slip, reversal, tangency
+        rec_u, rec_v = (np.zeros(p.n_nodes), np.zeros(p.n_nodes)) if self.keep else (_NO_RECORD, _NO_RECORD)
+        ints = np.zeros(5, dtype=np.int64)
+        reals = np.zeros(7)
+        z, y = (p.Vi @ p.x0).astype(complex), np.zeros(2 * n - 2, dtype=complex)
+        diff = (np.zeros((0, n), dtype=complex), p.grid.s, np.zeros((0, 2 * n)))
+        timing = np.array([float(p.forced), p.t_start, p.h, 0.0, 1.0, p.grid.n_fft])
+        while _kernels.friction_run(ints, reals, z, y, last, self._free, self._tables, self._held, self._conv,
+                                    self.lin, _LAGRANGE, _SHIFTED, self.F_c, self.mu, timing, diff, c0, c1,
+                                    counts, self.keep, rec_u, rec_v, _MAX_EVENTS_PER_STEP, _WINDOW_MIN,
+                                    _WINDOW_MAX) == _kernels.NEED_DIFF:
+            diff, timing = self._diff()
         self.final_state = (p.V @ z).real
-        events = dict(zip(("stick", "slip", "reversal", "tangency"), self.counts.tolist()))
-        self.record = {"u_tip": self.rec_u, "v_tip": self.rec_v, "events": events} if self.keep else {}
-        return np.stack([self.c0, self.c1], axis=1)
+        events = dict(zip(("stick", "slip", "reversal", "tangency"), counts.tolist()))
+        self.record = {"u_tip": rec_u, "v_tip": rec_v, "events": events} if self.keep else {}
+        return np.stack([c0, c1], axis=1)
 
 
 # ----------------------------------------------------------------------------------- drag
