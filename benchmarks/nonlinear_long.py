@@ -3,6 +3,7 @@
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/nonlinear_long.py             # simulations, ~1 minute
     OPENBLAS_NUM_THREADS=1 python benchmarks/nonlinear_long.py --compare   # and one compare (minutes)
+    OPENBLAS_NUM_THREADS=1 python benchmarks/nonlinear_long.py --diagnose  # and a blind diagnosis (~30 min)
 
 The record: the independent reference simulator's release of the paper's beam (q1 damping, 1 N
 tip load let go at t = 0) with 20 mN of Coulomb friction at the tip, 8 s at 2048 Hz, one tip
@@ -14,7 +15,11 @@ damping and five values of F_c (from a tip that slides throughout to one that st
 times: F_c equal to the tip load), and of the linear q1 model, the baseline; the ratio
 nonlinear / linear is printed. With ``--compare``: one ``bayesbeam.comparison.compare`` of
 q1+dry_friction with the default settings (2 SMC repeats) on a serial executor, its wall time and
-the number of simulations it ran.
+the number of simulations it ran. With ``--diagnose``: the blind diagnosis of the record (no
+``--model``: the default damping models compared, the whole catalogue screened, the damping
+re-checked) on two local processes, against the target of :data:`TARGET_SECONDS` on two idle
+cores, and the same diagnosis with the catalogue's nonlinear effects left out, the baseline in
+the same run: their ratio is what the nonlinear candidates cost on a record of this length.
 """
 from __future__ import annotations
 
@@ -31,8 +36,11 @@ import _common as c
 import tables  # benchmarks/tables.py: puts the working tree first on sys.path
 
 from bayesbeam.comparison import CompareConfig, compare
+from bayesbeam.diagnosis import DiagnoseConfig, diagnose
+from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig, prepare, starting_rung
 from bayesbeam.io import Sensor
+from bayesbeam.physics.effects import REGISTRY
 from bayesbeam.response import nonlinear
 from tests.acceptance.cases import _nominal
 from tests.inference.cases import EI_TRUE, PAPER_BEAM
@@ -43,6 +51,8 @@ F_C_TRUE = 0.02
 #: F_c values timed (N): sliding throughout, the truth's neighbourhood, and the tip load itself
 F_C_VALUES = (1e-4, 5e-3, F_C_TRUE, 0.1, 1.0)
 BAND = 150.0
+#: the blind diagnosis of this record on two idle cores (s)
+TARGET_SECONDS = 600.0
 
 
 def long_release():
@@ -102,9 +112,40 @@ def one_compare(rec, config: FitConfig) -> None:
     tables.record(compare_seconds=seconds, compare_simulations=count[0])
 
 
+def timed_diagnosis(rec, catalogue) -> tuple[dict, float]:
+    """(the blind diagnosis's summary, its wall time in s) on two local processes; ``catalogue``:
+    the effects screened (None: all)."""
+    config = DiagnoseConfig(CompareConfig(FitConfig(max_frequency=BAND)), catalogue=catalogue)
+    executor = LocalExecutor(2)
+    started = time.perf_counter()
+    try:
+        result = diagnose(rec, None, config, executor)
+    finally:
+        executor.close()
+    return result.to_dict(), time.perf_counter() - started
+
+
+def one_diagnosis(rec) -> None:
+    """The blind diagnosis with the whole catalogue, and without its nonlinear effects (the baseline)."""
+    linear = tuple(name for name, effect in REGISTRY.items() if effect.linear)
+    times = {}
+    for name, catalogue in (("linear catalogue (baseline)", linear), ("whole catalogue", None)):
+        summary, times[name] = timed_diagnosis(rec, catalogue)
+        print(f"diagnose, {name}: {times[name]:.1f} s wall (2 processes); baseline {summary['baseline']['model']}, "
+              f"added {', '.join(summary['added']) or 'nothing'}, final {summary['final']['model']}, unexplained "
+              f"{summary['unexplained']}; load {os.getloadavg()}")
+    whole, base = times["whole catalogue"], times["linear catalogue (baseline)"]
+    print(f"ratio whole / linear catalogue: {whole / base:.2f}; whole = {whole / TARGET_SECONDS:.2f} x the "
+          f"{TARGET_SECONDS:g} s target")
+    tables.record(diagnose_seconds=whole, diagnose_linear_seconds=base, diagnose_target_seconds=TARGET_SECONDS,
+                  diagnose_added=summary["added"], diagnose_final=summary["final"]["model"])
+
+
 def main(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--compare", action="store_true", help="also time one compare of q1+dry_friction")
+    parser.add_argument("--diagnose", action="store_true",
+                        help="also time the blind diagnosis, with the whole catalogue and with its linear effects")
     args = parser.parse_args(argv)
     print(f"{c.machine()}; load {os.getloadavg()}")
     rec = long_release()
@@ -114,6 +155,8 @@ def main(argv: list[str]) -> int:
     simulations(rec, config)
     if args.compare:
         one_compare(rec, FitConfig(max_frequency=BAND))
+    if args.diagnose:
+        one_diagnosis(rec)
     return 0
 
 
