@@ -29,7 +29,9 @@ Superposition: the linear part stays exact
    the DFT of its node values times a hold kernel (:func:`hold_mean`, :func:`hold_moment`,
    :func:`hold_cubic`). Its response goes through the exact transfer function and ``W``, on a
    grid of its own with room for the margins: band-limited like the measured channels, with no
-   aliasing from the fine grid.
+   aliasing from the fine grid. Only that grid's bins of the fine grid's DFT are formed: the U
+   phases of the nodes (every U-th node from node j) transformed at the grid's length and
+   combined with their shifts.
 
 Hence ``F_c = 0`` or ``c_q = 0`` gives the linear solver's output exactly (the integrator runs
 and adds zeros). Between nodes the linear dynamics are propagated exactly in the complex modes
@@ -77,7 +79,10 @@ Friction: exact stick-slip, events located inside the steps
   conversions between the two states and the location of the events. A forced record whose tip
   leaves a hold or sticks again takes a second call: the held-minus-free forced response those
   conversions read is built (one FFT) only for such a history. Python sets up the modes and
-  window tables before, and the output stage after.
+  window tables before, and the output stage after. The state is real, so the loop carries one
+  mode of each complex-conjugate pair (weight 2) and the real ones (:func:`_half`); where the
+  undamped modes diagonalise D, the modes of the free and of the held beam come in closed form
+  per undamped mode (:func:`_mode_pairs`).
 
 A force held constant over a step and chosen to null the tip velocity at its end (Moreau's
 time-stepping on the exact exponential) would be unstable here: with :math:`\omega h \gg 1`
@@ -201,10 +206,41 @@ def phi1(z):
 def _modes(system: SecondOrderSystem):
     """Complex modes (lambda, V, V^-1) of the first-order form. Complex even when every mode is
     overdamped, where the eigen-solver returns real arrays: the integrator's modal states are
-    complex throughout (and its compiled kernels typed so)."""
+    complex throughout (and its compiled kernels typed so).
+
+    Where the undamped modes diagonalise D (the ``diagonal`` form, no memory term) each mode's
+    pair is in closed form (:func:`_mode_pairs`), with no eigen-solve of the first-order form.
+    """
+    if system.relaxation is None and system.form == "diagonal":
+        return _mode_pairs(*system.undamped, np.diag(system._modal_damping), system.M)
     lam, vec = system.state_modes
     vec = vec.astype(complex)
     return lam.astype(complex), vec, np.linalg.inv(vec)
+
+
+def _mode_pairs(omega2: np.ndarray, phi: np.ndarray, c: np.ndarray, M: np.ndarray):
+    r"""(lambda, V, V^-1) of q'' + c q' + omega^2 q = 0 per undamped mode phi (mass-normalised).
+
+    The roots :math:`\lambda_\pm = -c/2 \pm \sqrt{c^2/4 - \omega^2}` (Im >= 0 first), the
+    columns :math:`[\phi; \lambda \phi]`, and from q = phi^T M w the coordinates
+    :math:`z_+ = (q' - \lambda_- q)/(\lambda_+ - \lambda_-)`, :math:`z_- = (\lambda_+ q - q')/(\lambda_+ - \lambda_-)`.
+    """
+    root = np.sqrt(0.25 * c * c - omega2 + 0j)
+    plus, minus = -0.5 * c + root, -0.5 * c - root
+    gap = (plus - minus)[:, None]
+    rows = (phi.T @ M) / gap
+    lam = np.concatenate([plus, minus])
+    V = np.block([[phi, phi], [phi * plus, phi * minus]])
+    Vi = np.block([[-minus[:, None] * rows, rows], [plus[:, None] * rows, -rows]])
+    return lam, V, Vi
+
+
+def _half(lam: np.ndarray, V: np.ndarray, Vi: np.ndarray) -> tuple:
+    """The modes (lambda, V, V^-1) of :func:`_half_modes` only, V's columns times their weights:
+    a real state's modal coordinates on the other modes are the conjugates, so ``(V z).real``
+    and every Re(c . z) of the kept coordinates z = V^-1 x equal the full sums, at half the work."""
+    keep, twice = _half_modes(lam)
+    return lam[keep], V[:, keep] * twice, Vi[keep]
 
 
 def _real_rows(a: np.ndarray) -> np.ndarray:
@@ -257,17 +293,24 @@ def _plant_grid(n: int, dt: float) -> FrequencyGrid:
 
 
 @lru_cache(maxsize=8)
-def _output_kernels(grid: FrequencyGrid, substeps: int, t_start: float, hold: str) -> tuple:
-    """Parameter-free per-bin factors of the output stage, one per hold kernel.
+def _output_kernels(grid: FrequencyGrid, substeps: int, t_start: float, hold: str, count: int) -> tuple:
+    """Parameter-free factors of the output stage: the window e^{-sigma t} of the ``count``
+    nodes (from node 0), and per hold kernel, bin and phase j (the nodes j, j + U, ...: see
+    :meth:`_Plant.response`) one factor (n_holds, n_bins, U).
 
-    The hold kernel (:func:`hold_cubic`, or :func:`hold_mean` and :func:`hold_moment`) at
-    x = s h, times the passband W, 1/U (the node sums approximate integrals over h = dt/U) and
-    the shift e^{-s t_start} of node 0.
+    The factor: the hold kernel (:func:`hold_cubic`, or :func:`hold_mean` and
+    :func:`hold_moment`) at x = s h, times the passband W, 1/U (the node sums approximate
+    integrals over h = dt/U), the shift e^{-s t_start} of node 0 and the phase's own shift
+    e^{-2 pi i j k / (U n_fft)} on bin k.
     """
-    x = grid.s * (grid.dt / substeps)
+    h = grid.dt / substeps
+    x = grid.s * h
     gain = grid.weight / substeps * np.exp(-grid.s * t_start)
     holds = (hold_cubic(x),) if hold == "cubic" else (hold_mean(x), hold_moment(x))
-    return tuple(k * gain for k in holds)
+    bins = np.arange(grid.freq.size)
+    phases = np.exp(-2j * np.pi / (substeps * grid.n_fft) * np.outer(bins, np.arange(substeps)))
+    factors = np.stack([(k * gain)[:, None] * phases for k in holds])
+    return np.exp(-grid.sigma * h * np.arange(count)), factors
 
 
 def _cyclic_take(x: np.ndarray, start: int, count: int) -> np.ndarray:
@@ -295,7 +338,6 @@ class _Plant:
         self.h = rec.dt / substeps
         self.lam, self.V, self.Vi = _modes(system)
         self.Minv = np.linalg.inv(system.M)
-        self.E = np.exp(self.lam * self.h)
         exc = rec.excitation
         # samples integrated before the first one and after the last: the filtered input's
         # Gaussian tails and the passband's kernel on the output need ~150 (see MARGIN)
@@ -366,14 +408,14 @@ class _Plant:
         (n_freq, n_sensors): the measurement chain on this grid (BeamModel.channel_response), or None.
         """
         grid, model = self.grid, self.model
-        nb = grid.freq.size
-        window = np.exp(-grid.sigma * self.h * np.arange(seq.shape[0]))
-        kernels = _output_kernels(grid, self.U, self.t_start, hold)
-        spec = fft.rfft(seq.T * window, self.n_fine)[..., :nb]     # (r, nb) or (2, r, nb)
-        if hold == "cubic":
-            spec *= kernels[0]
-        else:
-            spec = spec[0] * kernels[0] + spec[1] * kernels[1]
+        series = seq.T if hold == "moments" else seq.T[None]          # (n_holds, r, count)
+        window, factors = _output_kernels(grid, self.U, self.t_start, hold, series.shape[-1])
+        # the DFT of length U n_fft on its first n_fft/2 + 1 bins, as the U phases' DFTs of
+        # length n_fft (nodes j, j + U, ...) combined with their shifts: the bins kept only
+        padded = np.zeros(series.shape[:-1] + (self.n_fine,))
+        np.multiply(series, window, out=padded[..., :series.shape[-1]])
+        phases = fft.rfft(padded.reshape(series.shape[:-1] + (grid.n_fft, self.U)), axis=-2)
+        spec = np.einsum("crkj,ckj->rk", phases, factors)
         if delay:
             spec *= np.exp(-grid.s * delay)
         h = self.system.transfer(grid.s, self.rows, inputs)
@@ -452,6 +494,14 @@ def _moment_weights() -> np.ndarray:
     return out
 
 
+@lru_cache(maxsize=8)
+def _null_basis(e: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """An orthonormal basis T of the null space of the row e, and T^T (both contiguous): one
+    SVD per contact row, not per simulation."""
+    T = np.ascontiguousarray(linalg.null_space(np.array(e)[None, :]))
+    return T, np.ascontiguousarray(T.T)
+
+
 class _Friction:
     """Exact event-driven stick-slip (see the module docstring)."""
 
@@ -460,7 +510,7 @@ class _Friction:
         p, n, h = plant, plant.n, plant.h
         system = p.system
         M, D, K = system.M, system.D, system.K
-        lam, V, Vi = p.lam, p.V, p.Vi
+        lam, V, Vi = self.lam, self.V, self.Vi = _half(p.lam, p.V, p.Vi)
         self.Minv_e = p.Minv @ e
         self.mu = float(e @ self.Minv_e)
         self.beta = Vi[:, n:] @ self.Minv_e
@@ -470,23 +520,23 @@ class _Friction:
         self.lam_h, self.beta_lam = lam * h, self.beta / lam
         self.cvb = self.cv * self.beta_lam
         idx = np.arange(_WINDOW_MAX + 1)
-        self.epow = _powers(p.E, idx.size)
+        self.epow = _powers(np.exp(self.lam_h), idx.size)
         self.spow = np.vstack([np.zeros_like(lam), np.cumsum(self.epow[:-1], axis=0)])
         # the sliding tip's velocity (and, recorded, displacement) j steps on: pv[j] . z + gam qv[j]
         pv = _real_rows(self.cv * self.epow)
         qv = (self.spow @ (self.cv * self.gamma_h)).real
         pu, qu = (_real_rows(self.cu * self.epow), (self.spow @ (self.cu * self.gamma_h)).real) if record else (pv, qv)
         self._tables = (pv, qv, pu, qu, self.epow, self.spow)
-        self._free = np.stack([p.E, self.lam_h, self.beta_lam, self.cv, self.cvb, self.cv_lam, self.cu, self.gamma_h])
+        self._free = np.stack([self.epow[1], self.lam_h, self.beta_lam, self.cv, self.cvb, self.cv_lam, self.cu, self.gamma_h])
         # the beam with its tip held: w = T q + psi u_tip, T spanning the null space of e
-        self.T = np.ascontiguousarray(linalg.null_space(e[None, :]))
+        self.T, T_t = _null_basis(tuple(e))
         kinv_e = np.linalg.solve(K, e)
         self.k_tip = 1.0 / float(e @ kinv_e)
         self.psi = kinv_e * self.k_tip
         T = self.T
         Mr, Dr, Kr = T.T @ M @ T, T.T @ D @ T, T.T @ K @ T
         self.reduced = SecondOrderSystem(Mr, Dr, Kr)
-        lr, Vr, Vri = _modes(self.reduced)
+        lr, Vr, Vri = _half(*_modes(self.reduced))
         self.Vr, self.Vri, self.lr_h = Vr, Vri, lr * h
         ee = float(e @ e)
         MT_Mr = M @ T @ np.linalg.inv(Mr)
@@ -497,7 +547,7 @@ class _Friction:
         self.pg = _real_rows(self.cg * self.er_pow)
         # exact mean and first moment over step i of the held state's force: the held beam's
         # top modes oscillate within a step, so node values would alias them
-        mean = phis(lr * h, 1)[0]
+        mean = phi1(lr * h)
         moment = 12.0 * hold_moment(-lr * h)
         self.pg_mean = _real_rows(self.cg * self.er_pow[:-1] * mean)
         self.pg_moment = _real_rows(self.cg * self.er_pow[:-1] * moment)
@@ -505,7 +555,7 @@ class _Friction:
         # what the compiled event loop reads (:func:`_kernels.friction_run`)
         self._held = (self.lr_h, self.cg, self.k_tip, self.er_pow, self.pg, self.pg_mean, self.pg_moment,
                       np.ascontiguousarray(self._lin_moments))
-        self._conv = (V, Vi, Vr, Vri, T, np.ascontiguousarray(T.T), self.psi, self.Minv_e, np.ascontiguousarray(e))
+        self._conv = (V, Vi, Vr, Vri, T, T_t, self.psi, self.Minv_e, np.ascontiguousarray(e))
 
     # ------------------------------------------------------------------ linear signals
     def _linear_signals(self):
@@ -558,7 +608,7 @@ class _Friction:
         rec_u, rec_v = (np.zeros(p.n_nodes), np.zeros(p.n_nodes)) if self.keep else (_NO_RECORD, _NO_RECORD)
         ints = np.zeros(5, dtype=np.int64)
         reals = np.zeros(7)
-        z, y = (p.Vi @ p.x0).astype(complex), np.zeros(2 * n - 2, dtype=complex)
+        z, y = (self.Vi @ p.x0).astype(complex), np.zeros(self.lr_h.size, dtype=complex)
         diff = (np.zeros((0, n), dtype=complex), p.grid.s, np.zeros((0, 2 * n)))
         timing = np.array([float(p.forced), p.t_start, p.h, 0.0, 1.0, p.grid.n_fft])
         while _kernels.friction_run(ints, reals, z, y, last, self._free, self._tables, self._held, self._conv,
@@ -566,7 +616,7 @@ class _Friction:
                                     counts, self.keep, rec_u, rec_v, _MAX_EVENTS_PER_STEP, _WINDOW_MIN,
                                     _WINDOW_MAX) == _kernels.NEED_DIFF:
             diff, timing = self._diff()
-        self.final_state = (p.V @ z).real
+        self.final_state = (self.V @ z).real
         events = dict(zip(("stick", "slip", "reversal", "tangency"), counts.tolist()))
         self.record = {"u_tip": rec_u, "v_tip": rec_v, "events": events} if self.keep else {}
         return np.stack([c0, c1], axis=1)
