@@ -112,7 +112,8 @@ def _estimate(q: dict | None) -> str:
 
 def effect_table(found: list[dict]) -> str:
     head = ("| recording | effect (truth) | added | estimate, mean [90 %] | truth inside | ln B (sd) | "
-            "RMS std. residual before -> after | flags before -> after | s |\n|" + "---|" * 9)
+            "RMS std. residual before -> after | flags before -> after | damping (truth): first -> final | s |\n|"
+            + "---|" * 10)
     lines = [head]
     for r in found:
         truth = "; ".join(f"{p} = {v:.4g}" for p, v in r["truth"].items())
@@ -121,17 +122,22 @@ def effect_table(found: list[dict]) -> str:
         lnb = "; ".join(f"{b:.1f} ({sd:.1f})" for _, b, sd in r["lnB"]) or "-"
         lines.append(f"| {r['name']} | {r['effect']} {truth} | {', '.join(r['added']) or 'nothing'} | {est} | "
                      f"{'yes' if r['covered'] else 'NO'} | {lnb} | {r['rms'][0]:.2f} -> {r['rms'][1]:.2f} | "
-                     f"{r['flags'][0]} -> {r['flags'][1]} | {r['seconds']:.0f} |")
+                     f"{r['flags'][0]} -> {r['flags'][1]} | {_damping(r)} | {r['seconds']:.0f} |")
     return "\n".join(lines)
 
 
+def _damping(r: dict) -> str:
+    """The damping model the diagnosis started from and ended with, and the truth's."""
+    return f"({r['model']}) {r['damping'][0]} -> {r['damping'][1]}"
+
+
 def null_table(nulls: list[dict]) -> str:
-    lines = ["| recording | added | candidates tried (ln B) | RMS std. residual | flags | unexplained | s |",
-             "|" + "---|" * 7]
+    lines = [("| recording | added | candidates tried (ln B) | RMS std. residual | flags | unexplained | "
+              "damping (truth): first -> final | s |"), "|" + "---|" * 8]
     for r in nulls:
         tried = ", ".join(f"{e} ({b:.1f})" for e, b in r["tried"]) or "none (nothing flagged)"
         lines.append(f"| {r['name']} | {', '.join(r['added']) or 'nothing'} | {tried} | {r['rms'][0]:.2f} | "
-                     f"{r['flags'][0]} | {r['unexplained']} | {r['seconds']:.0f} |")
+                     f"{r['flags'][0]} | {r['unexplained']} | {_damping(r)} | {r['seconds']:.0f} |")
     return "\n".join(lines)
 
 
@@ -164,9 +170,11 @@ def blocks() -> dict[Path, dict[str, str]]:
         named = sum(r["named"] for r in found)
         covered = sum(r["covered"] for r in found)
         alarms = sum(bool(r["added"]) for r in nulls)
+        right = sum(r["damping"][1] == r["model"] for r in chosen)
         out |= {f"{key}-score": (f"**Named correctly (exactly the concealed effects added): {named} of {len(found)}. "
                                  f"Truth inside the 90 % interval: {covered} of {len(found)}. "
-                                 f"False alarms (an effect added to a null recording): {alarms} of {len(nulls)}.**"),
+                                 f"False alarms (an effect added to a null recording): {alarms} of {len(nulls)}. "
+                                 f"Final damping model the truth's: {right} of {len(chosen)}.**"),
                 f"{key}-effects": effect_table(found), f"{key}-nulls": null_table(nulls),
                 f"{key}-refused": refused_table(chosen)}
     return {RESULTS: out}
