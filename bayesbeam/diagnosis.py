@@ -62,7 +62,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locate, share_words
-from bayesbeam.checks.signatures import LINE_EFFECTS, rank_effects
+from bayesbeam.checks.signatures import LINE_EFFECTS, PLACES, rank_effects
 from bayesbeam.checks.survey import survey
 from bayesbeam.comparison import (
     DEFAULT_MODELS,
@@ -255,7 +255,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
             break
         partners = partner_effects(last_added) if last_added else set()
         chosen, unfitted = _fittable(rec, current, _candidates(ranking, mismatch, config.candidates,
-                                                                  rec.excitation.kind == "free_decay", partners),
+                                                                  rec.excitation.kind == "free_decay", partners, rec),
                                      round_)
         not_fitted += unfitted
         for n in unfitted:
@@ -491,9 +491,25 @@ def partner_effects(added: str) -> set[str]:
 #: 0.625 l above a 5 kg base at 80 Hz, studies/concealed_effects; a body within 0.4 % of a 2 kg
 #: base's Delta chi2, tests/checks/test_signatures.py): their fits' evidence decides
 RIVALS = {"attachment": {"base_support"}, "base_support": {"attachment"}}
+#: rivals where the screen places the body at a sensor (within half the places' spacing): riding
+#: there on a stiff link it is that sensor's mass (a 5 g mid-span sensor's concealed mass was fitted
+#: as a 4.6 g body at 0.255 m with its mode at 200-250 Hz, tests/acceptance/test_sensor_order.py)
+AT_SENSOR = {"attachment", "sensor_mass"}
 
 
-def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False, partners=()) -> list:
+def _rivals(chosen: list, ranked: list, rec) -> set[str]:
+    """The effects fitted beside ``chosen`` as their rivals (:data:`RIVALS`, :data:`AT_SENSOR`)."""
+    found = {r for c in chosen for r in RIVALS.get(c.effect, ())}
+    body = next((c for c in ranked if c.effect == "attachment"), None)
+    if rec is None or body is None or not AT_SENSOR & {c.effect for c in chosen}:
+        return found
+    near = rec.beam.length / (2 * PLACES)
+    if any(abs(x - s.location) <= near for x in getattr(body, "place", {}).values() for s in rec.sensors):
+        found |= AT_SENSOR
+    return found
+
+
+def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False, partners=(), rec=None) -> list:
     """The supported candidates in ranking order (at least the top one, at most ``n``), the
     ``partners`` of the effect added last (:func:`partner_effects`), and the effect the decay
     shapes point to (:func:`amplitude_dependence`). On a free decay with none
@@ -507,7 +523,8 @@ def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False, p
     sizes they are far from linear (10 % of the response's RMS of tip friction more than doubles
     mode 1's damping): the screen can miss them, so the decay shape adds them.
 
-    A supported :data:`RIVALS` of a chosen candidate is fitted beside it.
+    A supported rival of a chosen candidate (:func:`_rivals`; the body's place against ``rec``'s
+    sensors) is fitted beside it.
 
     The screen ranks a sensor's mass per sensor, but fitting ``sensor_mass`` fits every sensor's
     mass (:mod:`bayesbeam.physics.effects.sensor_mass`), so an effect is fitted once, with its
@@ -516,7 +533,7 @@ def _candidates(ranking, mismatch: Mismatch, n: int, free_decay: bool = False, p
     ranked = _first_per_effect(ranking.candidates)
     supported = [c for c in ranked if c.supported]
     chosen = supported[:n] or (ranked if free_decay else ranked[:1])
-    rivals = {r for c in chosen for r in RIVALS.get(c.effect, ())}
+    rivals = _rivals(chosen, ranked, rec)
     chosen += [c for c in supported if c.effect in rivals and c not in chosen]
     shapes = amplitude_dependence(mismatch) | input_shift(mismatch) | set(partners)
     return chosen + [c for c in ranked if c.effect in shapes and c not in chosen]

@@ -140,6 +140,30 @@ def test_a_body_and_a_support_resonance_are_fitted_together_whatever_their_ranks
         "base_support", "root_compliance"]
 
 
+def test_a_body_screened_at_a_sensor_and_that_sensors_mass_are_fitted_together():
+    """A body riding at a sensor on a stiff link is that sensor's mass: where the screen places the
+    body within half the places' spacing (l/16) of a sensor, a chosen body brings the sensor mass
+    and a chosen sensor mass the body (tests/acceptance/test_sensor_order.py fitted a mid-span
+    sensor's 5 g as a body there, the sensor mass ranked third); away from every sensor, neither."""
+    from bayesbeam.diagnosis import _candidates
+
+    def cand(effect, place=None):
+        return SimpleNamespace(effect=effect, supported=True, place=place or {})
+
+    rec = SimpleNamespace(beam=SimpleNamespace(length=0.5),
+                          sensors=[SimpleNamespace(location=0.5), SimpleNamespace(location=0.25)])
+    plain = SimpleNamespace(phase={}, modes=[_mode(0.01, 0.3)])
+
+    def fitted(ranked):
+        return [c.effect for c in _candidates(SimpleNamespace(candidates=ranked), plain, 2, rec=rec)]
+
+    at_mid = [cand("attachment", {"x_a": 0.25}), cand("mains_lines"), cand("sensor_mass"), cand("axial_load")]
+    assert fitted(at_mid) == ["attachment", "mains_lines", "sensor_mass"]
+    assert fitted([at_mid[2], at_mid[3], at_mid[1], at_mid[0]]) == ["sensor_mass", "axial_load", "attachment"]
+    away = [cand("attachment", {"x_a": 0.375}), cand("mains_lines"), cand("sensor_mass")]
+    assert fitted(away) == ["attachment", "mains_lines"]
+
+
 def test_a_sensor_mass_ranked_at_two_sensors_is_fitted_once_from_the_best_ranked():
     """The screen ranks a mass per sensor; fitting sensor_mass fits every sensor's, so it is one
     augmented model, started from the best-ranked sensor's value and the others' stated masses."""
