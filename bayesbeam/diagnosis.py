@@ -491,9 +491,10 @@ def partner_effects(added: str) -> set[str]:
 #: 0.625 l above a 5 kg base at 80 Hz, studies/concealed_effects; a body within 0.4 % of a 2 kg
 #: base's Delta chi2, tests/checks/test_signatures.py): their fits' evidence decides
 RIVALS = {"attachment": {"base_support"}, "base_support": {"attachment"}}
-#: rivals where the screen places the body at a sensor (within half the places' spacing): riding
-#: there on a stiff link it is that sensor's mass (a 5 g mid-span sensor's concealed mass was fitted
-#: as a 4.6 g body at 0.255 m with its mode at 200-250 Hz, tests/acceptance/test_sensor_order.py)
+#: rivals where the screen places the body at a sensor (within one of the places' spacing l/PLACES,
+#: its resolution): riding there on a stiff link it is that sensor's mass (a 5 g mid-span sensor's
+#: concealed mass at 0.25 m was screened as a body at 0.3125 m and fitted as a 4.6 g body at 0.255 m
+#: with its mode at 200-250 Hz, tests/acceptance/test_sensor_order.py)
 AT_SENSOR = {"attachment", "sensor_mass"}
 
 
@@ -503,7 +504,7 @@ def _rivals(chosen: list, ranked: list, rec) -> set[str]:
     body = next((c for c in ranked if c.effect == "attachment"), None)
     if rec is None or body is None or not AT_SENSOR & {c.effect for c in chosen}:
         return found
-    near = rec.beam.length / (2 * PLACES)
+    near = rec.beam.length / PLACES
     if any(abs(x - s.location) <= near for x in getattr(body, "place", {}).values() for s in rec.sensors):
         found |= AT_SENSOR
     return found
