@@ -508,7 +508,7 @@ def _rivals(chosen: list) -> set[str]:
 def _at_sensor(candidate, rec) -> bool:
     """Whether the screen places ``candidate`` (a placed effect's) within l/PLACES of a sensor of ``rec``."""
     near = rec.beam.length / PLACES
-    return any(abs(x - s.location) <= near for x in getattr(candidate, "place", {}).values() for s in rec.sensors)
+    return any(abs(x - s.location) <= near for x in candidate.place.values() for s in rec.sensors)
 
 
 def _sensor_mass_first(chosen: list, ranked: list, rec) -> list:

@@ -34,10 +34,10 @@ import time
 
 import _common as c
 import tables  # benchmarks/tables.py: puts the working tree first on sys.path
+from diagnose import timed_diagnose
 
 from bayesbeam.comparison import CompareConfig, compare
-from bayesbeam.diagnosis import DiagnoseConfig, diagnose
-from bayesbeam.executors import LocalExecutor
+from bayesbeam.diagnosis import DiagnoseConfig
 from bayesbeam.inference.fit import FitConfig, prepare, starting_rung
 from bayesbeam.io import Sensor
 from bayesbeam.physics.effects import REGISTRY
@@ -114,25 +114,13 @@ def one_compare(rec, config: FitConfig) -> None:
     tables.record(compare_seconds=seconds, compare_simulations=count[0])
 
 
-def timed_diagnosis(rec, catalogue) -> tuple[dict, float]:
-    """(the blind diagnosis's summary, its wall time in s) on two local processes; ``catalogue``:
-    the effects screened (None: all)."""
-    config = DiagnoseConfig(CompareConfig(FitConfig(max_frequency=BAND)), catalogue=catalogue)
-    executor = LocalExecutor(2)
-    started = time.perf_counter()
-    try:
-        result = diagnose(rec, None, config, executor)
-    finally:
-        executor.close()
-    return result.to_dict(), time.perf_counter() - started
-
-
 def one_diagnosis(rec) -> None:
     """The blind diagnosis with the whole catalogue, and without its nonlinear effects (the baseline)."""
     linear = tuple(name for name, effect in REGISTRY.items() if effect.linear)
     times = {}
     for name, catalogue in (("linear catalogue (baseline)", linear), ("whole catalogue", None)):
-        summary, times[name] = timed_diagnosis(rec, catalogue)
+        config = DiagnoseConfig(CompareConfig(FitConfig(max_frequency=BAND)), catalogue=catalogue)
+        summary, times[name] = timed_diagnose(rec, None, config)
         print(f"diagnose, {name}: {times[name]:.1f} s wall (2 processes); baseline {summary['baseline']['model']}, "
               f"added {', '.join(summary['added']) or 'nothing'}, final {summary['final']['model']}, unexplained "
               f"{summary['unexplained']}; load {os.getloadavg()}")
