@@ -13,7 +13,9 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
 4. **Model.** The supported candidates (at least the top-ranked one, at most
    ``candidates``), and drag or friction when a mode's decay is bent (damping that falls or rises
    as the vibration decays; :func:`amplitude_dependence`), are added to the current model one at
-   a time and fitted like it (own discretisation check, SMC evidence from repeated runs). A
+   a time and fitted like it (own discretisation check, SMC evidence from repeated runs). Drag
+   or friction that the current damping model cannot carry (a memory mechanism) is fitted with
+   each damping model of the first comparison that can, the best of them its trial (:func:`_hosted`). A
    candidate is **added** when
 
    * its log Bayes factor against the current model exceeds :data:`DECISIVE` = 5 nats
@@ -80,7 +82,7 @@ from bayesbeam.inference.priors import (
     stated_gain_tolerances,
     stated_sensor_masses,
 )
-from bayesbeam.model import BeamModel, join_model, resolve_model
+from bayesbeam.model import BeamModel, join_model, resolve_model, split_model
 from bayesbeam.physics.effects import REGISTRY as EFFECTS
 from bayesbeam.physics.effects.mains_lines import nominal_mains
 from bayesbeam.saved_comparison import SavedComparison
@@ -247,6 +249,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     say(f"baseline {current.name}: RMS standardized residual {mismatch.rms_standardized_residual:.2f}, "
         f"{len(mismatch.regions)} mismatch region(s)")
     rankings, trials, not_fitted, last_added = [], [], [], None
+    spare = {}                      # hosted fits not chosen as their effect's trial: model -> ModelResult
     for round_ in range(1, config.rounds + 1):
         ranking = rank_effects(current.problem.posterior, _draws(current), mismatch, config.catalogue)
         rankings.append(ranking)
@@ -260,11 +263,15 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         not_fitted += unfitted
         for n in unfitted:
             say(f"round {round_}: not fitting {n.model}: {n.reason}")
-        if not chosen:
+        hosted = _hosted(rec, current, mismatch, ranking, first_fits(results, damping, effects), config.catalogue)
+        if not chosen and not hosted:
             break
-        say(f"round {round_}: fitting {', '.join(current.name + '+' + c.effect for c in chosen)}")
-        fitted = _fit_augmented(rec, current, chosen, config, executor, log)
-        round_trials = [_trial(round_, c.effect, current, mismatch, f, rng, config) for c, f in zip(chosen, fitted)]
+        say(f"round {round_}: fitting {', '.join([current.name + '+' + c.effect for c in chosen] + list(hosted))}")
+        fitted = _fit_augmented(rec, current, chosen, config, executor, log, hosted)
+        best_hosted = _best_hosted(hosted, fitted[len(chosen):])
+        spare.update({r.name: r for r in fitted[len(chosen):] if r not in best_hosted.values()})
+        round_trials = [_trial(round_, e, current, mismatch, f, rng, config)
+                        for e, f in [*zip((c.effect for c in chosen), fitted), *best_hosted.items()]]
         trials += round_trials
         winners = [t for t in round_trials if t.decisive and t.improved]
         if not winners:
@@ -278,8 +285,8 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     recheck = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
-        first = {m: results[join_model(m, effects)] for m in damping if join_model(m, effects) in results}
-        recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first)
+        first = first_fits(results, damping, effects)
+        recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first, fitted=spare)
         not_fitted += recheck.not_fitted
         if recheck.switched:
             current = prune_added(rec, recheck, effects, added, first, config, executor, log)
@@ -288,6 +295,11 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
             mismatch = _locate(current, rng, config)
     return Diagnosis(baseline, baseline_map, rankings, trials, current, mismatch, None if model else summary,
                      time.perf_counter() - started, recheck, not_fitted, {} if model else left_out)
+
+
+def first_fits(results: dict, damping: list, effects: tuple) -> dict:
+    """The first comparison's fits, damping model name -> ModelResult (of the model + the given ``effects``)."""
+    return {m: results[join_model(m, effects)] for m in damping if join_model(m, effects) in results}
 
 
 def baseline_fits(rec, models: list, named: bool, config: DiagnoseConfig, executor, log,
@@ -310,7 +322,7 @@ def baseline_fits(rec, models: list, named: bool, config: DiagnoseConfig, execut
 
 
 def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log,
-                    first: dict | None = None) -> DampingRecheck:
+                    first: dict | None = None, fitted: dict | None = None) -> DampingRecheck:
     """Compare the damping models ``config.models`` + ``effects`` (those that can carry them) with ``current``.
 
     ``current`` (a damping model + the effects, already fitted) is not refitted. The switch needs
@@ -319,16 +331,22 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     is optimised from its global search and, as well, from its own first optimum with the effects'
     (and the shared parameters') values of ``current`` (:func:`_recheck_start`): the global
     search alone can miss the optimum of a model twice as wide as the one it found first.
+    ``fitted``: models fitted before with the same effects (model -> ModelResult: the hosts of a
+    nonlinear effect, :func:`_hosted`), taken as they are.
     """
     say = log or (lambda _text: None)
     known = _optimum_values(current)
     specs = {join_model(m, effects): m for m in config.models}
     others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)}, 0)
-    say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}")
+    reused = {s: fitted[s] for s in others if s in (fitted or {})}
+    to_fit = [s for s in others if s not in reused]
+    say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}"
+        + (f" ({', '.join(reused)} fitted before)" if reused else ""))
     started = time.perf_counter()
-    starts = {s: _recheck_start(first[specs[s]], current) for s in others if first and specs[s] in first}
-    results, _ = compare(rec, others, config.compare, executor, log, starts=starts,
-                         rivals={current.name: current.evidence})
+    starts = {s: _recheck_start(first[specs[s]], current) for s in to_fit if first and specs[s] in first}
+    results = compare(rec, to_fit, config.compare, executor, log, starts=starts,
+                      rivals={current.name: current.evidence})[0] if to_fit else {}
+    results.update(reused)
     results[current.name] = current
     summary = summarise_comparison(rec, results, time.perf_counter() - started)
     best = results[summary["best"]]
@@ -404,10 +422,8 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
     if rec.excitation.kind == "free_decay":
         return None
     model = BeamModel(rec, spec, 6)
-    priors = default_priors(rec.beam, model.parameter_names, {}, rec.setup)
-    values = {n: known[n] if n in known else float(priors[n].to_value(priors[n].median())) for n in model.parameter_names}
     try:
-        form = model.system(values).form
+        form = model.system(known_or_median(model, known)).form
     except ValueError:              # not physical at these values: let the fit find out
         return None
     if form not in ("banded", "dense"):
@@ -416,6 +432,25 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
     return ("its memory mechanism sits beside non-modal damping or a full-rank added stiffness, so its "
             f"transfer function needs a solve of Z(s) per frequency ({cost} per likelihood): "
             "fit it explicitly if it matters")
+
+
+def buildable(rec, spec: str) -> bool:
+    """Whether ``spec``'s model can be built for ``rec`` (:func:`combinable`, and what the model
+    refuses for the recording: a nonlinear effect on a free decay)."""
+    if not combinable(spec):
+        return False
+    try:
+        BeamModel(rec, spec, 6)
+    except ValueError:
+        return False
+    return True
+
+
+def known_or_median(model: BeamModel, known: dict) -> dict:
+    """Values of every parameter of ``model``: ``known``'s where it has one, else the default prior's median."""
+    rec = model.recording
+    priors = default_priors(rec.beam, model.parameter_names, {}, rec.setup)
+    return {n: known[n] if n in known else float(priors[n].to_value(priors[n].median())) for n in model.parameter_names}
 
 
 def _leave_out_slow(rec, specs: dict, round_: int) -> tuple[list[str], list[NotFitted]]:
@@ -598,8 +633,48 @@ def amplitude_dependence(mismatch: Mismatch) -> set[str]:
     return found
 
 
-def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log) -> list:
-    """ModelResults of ``current + effect`` for each candidate (one comparison: parallel over models).
+def _hosted(rec, current, mismatch: Mismatch, ranking, first: dict, catalogue=None) -> dict[str, tuple[str, dict]]:
+    """The nonlinear effects of ``catalogue`` (None: all) that the decay shapes point to
+    (:func:`amplitude_dependence`) and ``current``'s damping cannot carry (a memory mechanism: the
+    nonlinear integrator needs a state-space model), each with ``current``'s effects hosted by
+    every damping model of the ``first`` comparison (damping model -> ModelResult) that can carry
+    it (none on a free decay, which no nonlinear model simulates): model spec -> (effect, values
+    to start from: the host's optimum, ``current``'s for the parameters they share, the effect's
+    prior medians), the best host by the first comparison's evidence first.
+
+    Friction makes a memory mechanism win the first comparison (time hysteresis 48 nats above the
+    true q1 on an 8 s friction release, benchmarks/nonlinear_long.py), and the screen cannot rank
+    friction beside it: without a host the decay's bend, the direct evidence for friction, would
+    never be fitted. That comparison, misled by the friction, cannot say which host is right, so
+    every host is fitted, together (:func:`_best_hosted` takes the best as the effect's trial, its
+    log Bayes factor against ``current``; adding it changes the damping model with it), and the
+    damping re-check reuses the other hosts' fits when nothing else was added.
+    """
+    effects = split_model(current.name)[1]
+    ranked = {c.effect for c in ranking.candidates} | set(effects)
+    hosted = {}
+    for effect in sorted((amplitude_dependence(mismatch) & set(catalogue or EFFECTS)) - ranked):
+        if combinable(join_model(current.name, [effect])):
+            continue
+        for host in sorted(first, key=lambda m: -first[m].evidence.log_z):
+            spec = join_model(host, effects + (effect,))
+            if buildable(rec, spec):
+                hosted[spec] = (effect, known_or_median(BeamModel(rec, spec, 6), _recheck_start(first[host], current)))
+    return hosted
+
+
+def _best_hosted(hosted: dict, results: list) -> dict:
+    """effect -> the ModelResult of its best host by evidence (``results``: the fits of ``hosted``'s models, in order)."""
+    best = {}
+    for (effect, _), result in zip(hosted.values(), results):
+        if effect not in best or result.evidence.log_z > best[effect].evidence.log_z:
+            best[effect] = result
+    return best
+
+
+def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log, hosted=None) -> list:
+    """ModelResults of ``current + effect`` for each candidate, then of each ``hosted`` model
+    (:func:`_hosted`), in one comparison (parallel over models).
 
     Each is optimised from its global search and, as well, from the current model's optimum with
     the effect at the signature's value: the augmented model nests the current one, so its
@@ -611,9 +686,11 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
     """
     specs = [f"{current.name}+{c.effect}" for c in candidates]
     starts = {s: _probe_values(current, c) for s, c in zip(specs, candidates) if c.value is not None}
-    results, _ = compare(rec, specs, config.compare, executor, log, starts=starts,
+    hosted = hosted or {}
+    starts.update({spec: start for spec, (_, start) in hosted.items()})
+    results, _ = compare(rec, specs + list(hosted), config.compare, executor, log, starts=starts,
                          rivals={current.name: current.evidence})
-    return [results[s] for s in specs]
+    return [results[s] for s in specs + list(hosted)]
 
 
 def _trial(round_, effect, current, mismatch, result, rng, config) -> Trial:
@@ -907,8 +984,11 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
         params = _estimates(summary) or _fixed_words(t)
         verdict = ("added, then dropped after the damping re-check" if t.dropped else
                    "added" if t.added else "not added: " + _refusal(t, d.trials))
-        text.append(f"Round {t.round}, {label(t.effect, summary, rec)}: log Bayes factor {t.log_bayes_factor:.1f} +- "
-                    f"{t.log_bayes_factor_sd:.2g} nats against {d.chain()[t.round - 1][0].name}, RMS standardized residual "
+        against = d.chain()[t.round - 1][0].name
+        hosted = ("" if t.result.name == join_model(against, [t.effect]) else
+                  f" (fitted as {t.result.name}: {against}'s memory mechanism cannot carry it)")
+        text.append(f"Round {t.round}, {label(t.effect, summary, rec)}{hosted}: log Bayes factor {t.log_bayes_factor:.1f} +- "
+                    f"{t.log_bayes_factor_sd:.2g} nats against {against}, RMS standardized residual "
                     f"{t.mismatch.rms_standardized_residual:.2f}, {flags(t.mismatch)} flag(s); {params}: {verdict}.")
     found = [label(t.effect, summary, rec) for t, summary, verdict in zip(d.trials, parameters, verdicts)
              if t.effect in d.added and not verdict]

@@ -97,6 +97,34 @@ def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["quadratic_drag", "dry_friction"]
 
 
+def test_friction_the_memory_baseline_cannot_carry_is_fitted_with_the_best_damping_model_that_can():
+    """A bent decay points to friction, which a baseline with time hysteresis (q2) cannot carry and
+    the screen therefore cannot rank: it is fitted with every damping model of the first comparison
+    that can, the best of that comparison first (air, then q1 and q3), with the baseline's effects,
+    from that model's optimum and the baseline's shared values; not when the baseline can carry it,
+    the screen ranked it, the catalogue leaves it out or the recording is a free decay."""
+    from bayesbeam.diagnosis import _hosted
+
+    rises = SimpleNamespace(phase={}, modes=[_mode(-0.05, 1e-6), _mode(0.01, 0.5)])
+    plain = SimpleNamespace(phase={}, modes=[_mode(0.01, 0.3)])
+    unranked = SimpleNamespace(candidates=[SimpleNamespace(effect="base_support", supported=True)])
+    first = {"q2": _result("q2", -10.0), "q1": _result("q1", -60.0), "air": _result("air", -59.0),
+             "q3": _result("q3", -61.0)}
+    current = _result("q2+sensor_mass", 0.0)
+    hammer = recording(None)
+    hosted = _hosted(hammer, current, rises, unranked, first)
+    assert list(hosted) == ["air+sensor_mass+dry_friction", "q1+sensor_mass+dry_friction", "q3+sensor_mass+dry_friction"]
+    effect, start = hosted["air+sensor_mass+dry_friction"]
+    assert effect == "dry_friction" and start["EI"] == 44.0 and start["F_c"] > 0 and set(start) >= {"gamma", "m_s"}
+    assert _hosted(hammer, current, plain, unranked, first) == {}
+    assert _hosted(hammer, _result("q1+sensor_mass", 0.0), rises, unranked, first) == {}
+    ranked = SimpleNamespace(candidates=[SimpleNamespace(effect="dry_friction", supported=False)])
+    assert _hosted(hammer, current, rises, ranked, first) == {}
+    assert _hosted(hammer, current, rises, unranked, first, catalogue=("base_support",)) == {}
+    assert _hosted(hammer, current, rises, unranked, {"q2": first["q2"]}) == {}
+    assert _hosted(free_decay(hammer, 0.1), current, rises, unranked, first) == {}        # no nonlinear model simulates one
+
+
 def test_the_round_after_a_root_spring_fits_its_dashpot_whatever_its_rank():
     """Clamp losses: once root_compliance is added, root_damping (which requires it) is fitted in
     the next round even when the screen ranks it last and unsupported; a sensor mass added brings
@@ -238,6 +266,34 @@ def _result(name, log_z, sd=0.1):
     model = SimpleNamespace(effects=[SimpleNamespace(parameters=("k_theta",))])
     return SimpleNamespace(name=name, evidence=SimpleNamespace(log_z=log_z, log_z_sd=sd),
                            problem=SimpleNamespace(posterior=posterior, model=model), optimum=SimpleNamespace(theta=None))
+
+
+def test_the_best_host_of_a_nonlinear_effect_is_its_trial_and_the_recheck_reuses_the_others(monkeypatch):
+    """Of the hosts fitted together, the one with the highest evidence (q1 here, not the first
+    comparison's favourite air) is the effect's trial; the damping re-check with that effect fits
+    only the damping models not fitted before (strain_rate) and compares the hosts as they are."""
+    import bayesbeam.diagnosis as dg
+
+    hosted = {f"{m}+dry_friction": ("dry_friction", {}) for m in ("air", "q1", "q3")}
+    fits = [_result("air+dry_friction", -40.0), _result("q1+dry_friction", -20.0), _result("q3+dry_friction", -30.0)]
+    assert dg._best_hosted(hosted, fits) == {"dry_friction": fits[1]}
+    log_z = {"q1+dry_friction": -20.0, "strain_rate+dry_friction": -35.0}
+    asked = []
+
+    def fake_compare(rec, models, config, executor, log, **options):
+        asked.extend(models)
+        return {m: _result(m, log_z[m]) for m in models}, None
+
+    monkeypatch.setattr(dg, "compare", fake_compare)
+    monkeypatch.setattr(dg, "summarise_comparison", lambda rec, results, seconds: {
+        "best": max(results, key=lambda m: results[m].evidence.log_z)})
+    monkeypatch.setattr(dg, "too_slow", lambda rec, spec, known: None)
+    config = dg.DiagnoseConfig(models=("q1", "q2", "q3", "air", "strain_rate"))
+    recheck = dg.recheck_damping(None, fits[1], ("dry_friction",), config, None, None,
+                                 fitted={f.name: f for f in (fits[0], fits[2])})
+    assert asked == ["strain_rate+dry_friction"]
+    assert set(recheck.results) == {"q1+dry_friction", "q3+dry_friction", "air+dry_friction", "strain_rate+dry_friction"}
+    assert recheck.best == "q1+dry_friction" and not recheck.switched
 
 
 def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
