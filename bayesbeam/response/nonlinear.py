@@ -212,7 +212,7 @@ def _modes(system: SecondOrderSystem):
     pair is in closed form (:func:`_mode_pairs`), with no eigen-solve of the first-order form.
     """
     if system.relaxation is None and system.form == "diagonal":
-        return _mode_pairs(*system.undamped, np.diag(system._modal_damping), system.M)
+        return _mode_pairs(*system.undamped, np.diag(system.modal_damping), system.M)
     lam, vec = system.state_modes
     vec = vec.astype(complex)
     return lam.astype(complex), vec, np.linalg.inv(vec)

@@ -153,7 +153,9 @@ class SecondOrderSystem:
         return phi.T @ a @ phi
 
     @cached_property
-    def _modal_damping(self) -> np.ndarray:
+    def modal_damping(self) -> np.ndarray:
+        """The damping matrix in the mass-normalised undamped modes, Phi^T D Phi (1/s); diagonal
+        where the modes diagonalise D (the ``diagonal`` form), each mode's 2 zeta_m omega_m."""
         return self._modal(self.D)
 
     @cached_property
@@ -176,7 +178,7 @@ class SecondOrderSystem:
     @cached_property
     def _diagonal(self) -> bool:
         """Do the undamped modes diagonalise D and K_h (the ``diagonal`` form)?"""
-        return _is_diagonal(self._modal_damping) and (self.relaxation is None or _is_diagonal(self._modal_memory))
+        return _is_diagonal(self.modal_damping) and (self.relaxation is None or _is_diagonal(self._modal_memory))
 
     @cached_property
     def _proportional_to_stiffness(self) -> bool:
@@ -190,7 +192,7 @@ class SecondOrderSystem:
         """The split in the undamped modes of (K, M) (S_M = S_K = 0), or None (see :meth:`_split`)."""
         if not self._admits_low_rank:
             return None
-        return self._split(*self.undamped, None, None, self._modal_damping,
+        return self._split(*self.undamped, None, None, self.modal_damping,
                            None if self.relaxation is None else self._modal_memory)
 
     @cached_property
@@ -301,7 +303,7 @@ class SecondOrderSystem:
         lam, phi = self.undamped
         cphi, phib = C @ phi, phi.T @ B
         beta = (cphi.T[:, :, None] * phib[:, None, :]).reshape(self.size, -1)
-        den = [np.ones(self.size), np.diag(self._modal_damping), lam]
+        den = [np.ones(self.size), np.diag(self.modal_damping), lam]
         if self.relaxation is not None:
             den.append(np.diag(self._modal_memory))
         return np.stack(den, axis=1), beta, None
@@ -338,7 +340,7 @@ class SecondOrderSystem:
         """
         poles, vec = self._modal_state_modes
         p, u = poles[keep], vec[: self.size, keep]
-        norm = 2 * p * np.einsum("ij,ij->j", u, u) + np.einsum("ij,ij->j", u, self._modal_damping @ u)
+        norm = 2 * p * np.einsum("ij,ij->j", u, u) + np.einsum("ij,ij->j", u, self.modal_damping @ u)
         phi = self.undamped[1]
         left, right = (C @ phi) @ u, (u.T @ (phi.T @ B)) / norm[:, None]
         return p, (left.T[:, :, None] * right[:, None, :]).reshape(p.size, -1)
@@ -442,8 +444,8 @@ class SecondOrderSystem:
         """diag(diagonal_k) + c_d,k D_m - c_h,k K_h,m for every k: (k, n, n), in two passes over the
         stack (one without damping) where the sum of broadcast terms took five."""
         out = -c_h[:, None, None] * self._modal_memory
-        if np.any(self._modal_damping):
-            out += c_d[:, None, None] * self._modal_damping
+        if np.any(self.modal_damping):
+            out += c_d[:, None, None] * self.modal_damping
         idx = np.arange(self.size)
         out[:, idx, idx] += diagonal
         return out
@@ -455,7 +457,7 @@ class SecondOrderSystem:
         q'' + D_m q' + diag(omega^2) q = Phi^T B f: the same poles, and no solve with M.
         """
         n = self.size
-        a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(self.undamped[0]), -self._modal_damping]])
+        a = np.block([[np.zeros((n, n)), np.eye(n)], [-np.diag(self.undamped[0]), -self.modal_damping]])
         return np.linalg.eig(a)
 
     @cached_property
@@ -537,7 +539,7 @@ class SecondOrderSystem:
         """Newton's method on each modal denominator; the modes whose iteration converged
         (:func:`_converged`)."""
         lam = self.undamped[0]
-        d_m, kh_m = np.diag(self._modal_damping), np.diag(self._modal_memory)
+        d_m, kh_m = np.diag(self.modal_damping), np.diag(self._modal_memory)
         s = 1j * np.sqrt(lam.astype(complex))
         for _ in range(60):
             g = self.relaxation(s)
