@@ -3,7 +3,7 @@
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/nonlinear_long.py             # simulations, ~1 minute
     OPENBLAS_NUM_THREADS=1 python benchmarks/nonlinear_long.py --compare   # and one compare (minutes)
-    OPENBLAS_NUM_THREADS=1 python benchmarks/nonlinear_long.py --diagnose  # and a blind diagnosis (~30 min)
+    OPENBLAS_NUM_THREADS=1 python benchmarks/nonlinear_long.py --diagnose  # and two blind diagnoses (~40 min)
 
 The record: the independent reference simulator's release of the paper's beam (q1 damping, 1 N
 tip load let go at t = 0) with 20 mN of Coulomb friction at the tip, 8 s at 2048 Hz, one tip

@@ -30,7 +30,7 @@ SCRIPTS = {"compare_full": "compare", "diagnose_paper_quadratic_drag": "diagnose
 ARGUMENTS = {"compare": ["--max-frequency", "150"],
              "diagnose_paper_quadratic_drag": ["--concealed", "paper_quadratic_drag"],
              "diagnose_paper_dry_friction": ["--concealed", "paper_dry_friction"],
-             "from_comparison_root_spring": ["--k-theta", "4000"], "nonlinear_long": ["--compare"]}
+             "from_comparison_root_spring": ["--k-theta", "4000"], "nonlinear_long": ["--compare", "--diagnose"]}
 
 sys.path.insert(0, str(HERE.parent))          # the working tree's bayesbeam, even if another copy is installed
 
