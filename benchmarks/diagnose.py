@@ -38,11 +38,16 @@ TARGET_SECONDS = {"example": 300.0, "concealed": 600.0}
 
 
 def timed_diagnose(rec, model, config: DiagnoseConfig) -> tuple[dict, float]:
-    """(diagnosis.json's content, wall time in s) on two local processes."""
+    """(diagnosis.json's content, wall time in s) on two local processes. The diagnosis's steps go
+    to standard error with the seconds since its start (where the time goes; not in the result)."""
     executor = LocalExecutor(2)
     started = time.perf_counter()
+
+    def log(text: str) -> None:
+        print(f"[{time.perf_counter() - started:7.1f} s] {text}", file=sys.stderr, flush=True)
+
     try:
-        result = diagnose(rec, model, config, executor)
+        result = diagnose(rec, model, config, executor, log=log)
     finally:
         executor.close()
     return result.to_dict(), time.perf_counter() - started
