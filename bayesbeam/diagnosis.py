@@ -68,17 +68,14 @@ from bayesbeam.checks.signatures import LINE_EFFECTS, PLACES, rank_effects
 from bayesbeam.checks.survey import survey
 from bayesbeam.comparison import (
     DEFAULT_MODELS,
-    EARLY_STOP_NATS,
     CompareConfig,
     compare,
     expand_model_sets,
     left_out_words,
     material_left_out,
-    optimise_job,
     posterior_summary,
 )
 from bayesbeam.comparison import summarise as summarise_comparison
-from bayesbeam.inference.evidence import laplace_reference, lower_bound
 from bayesbeam.inference.priors import (
     SENSOR_MASS_SIGMA,
     default_priors,
@@ -107,8 +104,6 @@ GAIN_STAND_IN_TOLERANCES = 5.0
 RESONANCE_LIMIT = 10.0
 #: a base heavier than this many times the mass beyond the clamp (rho A l + m_T) is none (:func:`stand_in`)
 BASE_MASS_LIMIT = 1e4
-#: draws of a host's Laplace reference for the lower bound of its log evidence (:func:`_screen_hosts`)
-BOUND_DRAWS = 64
 
 
 @dataclass
@@ -255,7 +250,6 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         f"{len(mismatch.regions)} mismatch region(s)")
     rankings, trials, not_fitted, last_added = [], [], [], None
     spare = {}                      # hosted fits not chosen as their effect's trial: model -> ModelResult
-    excluded = {}                   # hosts not sampled (:func:`_screen_hosts`): model -> why
     for round_ in range(1, config.rounds + 1):
         ranking = rank_effects(current.problem.posterior, _draws(current), mismatch, config.catalogue)
         rankings.append(ranking)
@@ -269,17 +263,11 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         not_fitted += unfitted
         for n in unfitted:
             say(f"round {round_}: not fitting {n.model}: {n.reason}")
-        hosted, optimised, hopeless = _screen_hosts(rec, current, _hosted(
-            rec, current, mismatch, ranking, first_fits(results, damping, effects), config.catalogue), config, executor,
-            round_)
-        not_fitted += hopeless
-        excluded.update({n.model: n.reason for n in hopeless})
-        for n in hopeless:
-            say(f"round {round_}: not sampling {n.model}: {n.reason}")
+        hosted = _hosted(rec, current, mismatch, ranking, first_fits(results, damping, effects), config.catalogue)
         if not chosen and not hosted:
             break
         say(f"round {round_}: fitting {', '.join([current.name + '+' + c.effect for c in chosen] + list(hosted))}")
-        fitted = _fit_augmented(rec, current, chosen, config, executor, log, hosted, optimised)
+        fitted = _fit_augmented(rec, current, chosen, config, executor, log, hosted)
         best_hosted = _best_hosted(hosted, fitted[len(chosen):])
         spare.update({r.name: r for r in fitted[len(chosen):] if r not in best_hosted.values()})
         round_trials = [_trial(round_, e, current, mismatch, f, rng, config)
@@ -298,8 +286,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
         first = first_fits(results, damping, effects)
-        recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first, fitted=spare,
-                                  excluded=excluded)
+        recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first, fitted=spare)
         not_fitted += recheck.not_fitted
         if recheck.switched:
             current = prune_added(rec, recheck, effects, added, first, config, executor, log)
@@ -335,7 +322,7 @@ def baseline_fits(rec, models: list, named: bool, config: DiagnoseConfig, execut
 
 
 def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log,
-                    first: dict | None = None, fitted: dict | None = None, excluded=()) -> DampingRecheck:
+                    first: dict | None = None, fitted: dict | None = None) -> DampingRecheck:
     """Compare the damping models ``config.models`` + ``effects`` (those that can carry them) with ``current``.
 
     ``current`` (a damping model + the effects, already fitted) is not refitted. The switch needs
@@ -345,14 +332,12 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     (and the shared parameters') values of ``current`` (:func:`_recheck_start`): the global
     search alone can miss the optimum of a model twice as wide as the one it found first.
     ``fitted``: models fitted before with the same effects (model -> ModelResult: the hosts of a
-    nonlinear effect, :func:`_hosted`), taken as they are; ``excluded``: models found unable to win
-    before their evidence was sampled (:func:`_screen_hosts`; reported in their round), left out.
+    nonlinear effect, :func:`_hosted`), taken as they are.
     """
     say = log or (lambda _text: None)
     known = _optimum_values(current)
     specs = {join_model(m, effects): m for m in config.models}
-    others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)
-                                             and s not in excluded}, 0)
+    others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)}, 0)
     reused = {s: fitted[s] for s in others if s in (fitted or {})}
     to_fit = [s for s in others if s not in reused]
     say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}"
@@ -678,43 +663,6 @@ def _hosted(rec, current, mismatch: Mismatch, ranking, first: dict, catalogue=No
     return hosted
 
 
-def _screen_hosts(rec, current, hosted: dict, config: DiagnoseConfig, executor, round_: int) -> tuple[dict, dict, list]:
-    """(the ``hosted`` models (:func:`_hosted`) worth sampling, their optima (model -> what
-    :func:`~bayesbeam.comparison.optimise_job` returned), a NotFitted for each of the rest).
-
-    A host's evidence is the most expensive fit of a diagnosis: on the 8 s friction release
-    (benchmarks/nonlinear_long.py) q3+dry_friction's SMC, whose acceptance fell to 3 % and whose
-    every stage took the most mutation steps, filled most of a 22-minute round and ended with its
-    highest log likelihood 963 nats below air+dry_friction's log evidence. So each host is optimised
-    first, and one that cannot be the best is not sampled: log Z <= log max L (up to the prior's
-    pull), so a host whose highest log likelihood found (its optimum's) lies more than
-    :data:`~bayesbeam.comparison.EARLY_STOP_NATS` below a lower bound of another model's log Z (a
-    host's :func:`~bayesbeam.inference.evidence.lower_bound` from its Laplace reference, or the
-    current model's SMC log Z, each less three standard errors) trails it decisively, the rule of
-    :func:`~bayesbeam.comparison.beaten` applied before the first SMC run.
-    """
-    if not hosted:
-        return {}, {}, []
-    specs = list(hosted)
-    stage1 = executor.map(optimise_job, [(rec, spec, config.compare, [config.compare.seed, round_, i], hosted[spec][1])
-                                         for i, spec in enumerate(specs)])
-    rng = np.random.default_rng([config.compare.seed, round_])
-    ceilings, floors = {}, {current.name: current.evidence.log_z - 3 * current.evidence.log_z_sd}
-    for spec, (problem, optimum, _) in zip(specs, stage1):
-        post = problem.posterior
-        ceilings[spec] = optimum.log_posterior - post.log_prior(optimum.theta)
-        bound, se = lower_bound(post.terms_batch, laplace_reference(post.priors, optimum.theta, optimum.covariance),
-                                rng, BOUND_DRAWS)
-        floors[spec] = bound - 3 * se
-    best = max(floors, key=floors.get)
-    hopeless = {spec: floors[best] - ceilings[spec] for spec in specs if floors[best] - ceilings[spec] > EARLY_STOP_NATS}
-    kept = {spec: hosted[spec] for spec in specs if spec not in hopeless}
-    return kept, {spec: fit for spec, fit in zip(specs, stage1) if spec in kept}, [NotFitted(
-        round_, spec, f"not sampled: the highest log likelihood found for it, which bounds its log evidence from "
-        f"above, lies {gap:.1f} nats below a lower bound of {best}'s log evidence, more than {EARLY_STOP_NATS:g} nats")
-        for spec, gap in hopeless.items()]
-
-
 def _best_hosted(hosted: dict, results: list) -> dict:
     """effect -> the ModelResult of its best host by evidence (``results``: the fits of ``hosted``'s models, in order)."""
     best = {}
@@ -724,11 +672,9 @@ def _best_hosted(hosted: dict, results: list) -> dict:
     return best
 
 
-def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log, hosted=None,
-                   optimised=None) -> list:
+def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log, hosted=None) -> list:
     """ModelResults of ``current + effect`` for each candidate, then of each ``hosted`` model
-    (:func:`_hosted`; ``optimised``: their optima, :func:`_screen_hosts`), in one comparison
-    (parallel over models).
+    (:func:`_hosted`), in one comparison (parallel over models).
 
     Each is optimised from its global search and, as well, from the current model's optimum with
     the effect at the signature's value: the augmented model nests the current one, so its
@@ -743,7 +689,7 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
     hosted = hosted or {}
     starts.update({spec: start for spec, (_, start) in hosted.items()})
     results, _ = compare(rec, specs + list(hosted), config.compare, executor, log, starts=starts,
-                         rivals={current.name: current.evidence}, optimised=optimised)
+                         rivals={current.name: current.evidence})
     return [results[s] for s in specs + list(hosted)]
 
 

@@ -170,28 +170,6 @@ def _nearest_positive_definite(cov):
     return (v * w) @ v.T
 
 
-def lower_bound(terms_batch, reference: Reference, rng: np.random.Generator, n: int = 64) -> tuple[float, float]:
-    r"""A lower bound of log Z from ``n`` draws of ``reference``: (estimate, its standard error).
-
-    By Jensen's inequality, for any normalised density q,
-
-    .. math:: \log Z = \log E_q\!\left[\frac{L\,\pi}{q}\right]
-              \ \ge\ E_q\left[\log L + \log\pi - \log q\right],
-
-    the gap being KL(q || posterior): small where q is the Laplace reference of a posterior
-    near-Gaussian, never negative. The expectation is the mean over the draws (a draw off the
-    prior's support makes it -inf: a useless but valid bound). ``terms_batch``: thetas (P, ndim)
-    -> (log priors, log likelihoods), e.g. :meth:`~bayesbeam.inference.posterior.LogPosterior.terms_batch`.
-    """
-    theta = reference.sample(rng, n)
-    log_prior, log_lik = terms_batch(theta)
-    with np.errstate(invalid="ignore"):
-        terms = log_lik + log_prior - reference.log_density(theta)
-    if not np.all(np.isfinite(terms)):
-        return -np.inf, 0.0
-    return float(np.mean(terms)), float(np.std(terms, ddof=1) / np.sqrt(n))
-
-
 # ---------------------------------------------------------------------------- the tempered target
 class TemperedTarget:
     r"""log f_beta(theta) with (log pi, log L, log q) as emcee blobs; picklable for process pools.

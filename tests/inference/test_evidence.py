@@ -16,7 +16,6 @@ from bayesbeam.inference.evidence import (
     Reference,
     combine_runs,
     laplace_reference,
-    lower_bound,
     matched_reference,
     smc,
 )
@@ -80,28 +79,6 @@ def test_smc_from_a_laplace_reference_matches_and_recovers_the_posterior(linear_
     draws = evidence.samples.reshape(-1, 4)
     # 900 draws: the mean is within 4 standard errors (sd / 30) of the exact posterior mean
     assert np.all(np.abs(draws.mean(axis=0) - mean) < 4 * np.sqrt(np.diag(cov)) / 30)
-
-
-def test_the_lower_bound_is_the_evidence_from_the_exact_posterior_and_below_it_from_any_other(linear_gaussian):
-    """E_q[log L + log pi - log q] <= log Z, with equality where q is the posterior: from the exact
-    Gaussian posterior (a Student-t of 1e9 degrees of freedom, Gaussian to about 1e-6 nats in log
-    density) every term is log Z, so the bound matches to 1e-5 nats with a standard error as small
-    (a wrong normalisation anywhere is off by whole nats); from the Laplace reference's shape (1.5 x
-    the sds, 4 dof) it lies below by KL(q || posterior), about 9.5 nats in these 4 dimensions (the
-    t's variance is twice its scale's square, so E_q of the posterior's quadratic form is 4 x 4.5),
-    less than 12 below; the t's tails make its standard error nats, not a rounding error. (A bound
-    that forgets log q is 10 nats off in the exact case.)"""
-    terms, priors, log_z, mean, cov = linear_gaussian
-
-    def batch(thetas):
-        return tuple(np.array(column) for column in zip(*(terms(t) for t in thetas)))
-
-    exact = Reference(priors, np.ones(4, bool), mean, cov, df=1e9)
-    bound, se = lower_bound(batch, exact, np.random.default_rng(1), 64)
-    assert abs(bound - log_z) < 1e-5 and se < 1e-5
-    broad = Reference(priors, np.ones(4, bool), mean, 2.25 * cov)
-    bound, se = lower_bound(batch, broad, np.random.default_rng(1), 256)
-    assert log_z - 12.0 < bound < log_z and se > 1.0
 
 
 def test_particles_that_coincide_after_resampling_are_moved_apart(linear_gaussian):
