@@ -250,6 +250,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         f"{len(mismatch.regions)} mismatch region(s)")
     rankings, trials, not_fitted, last_added = [], [], [], None
     spare = {}                      # hosted fits not chosen as their effect's trial: model -> ModelResult
+    first = first_fits(results, damping, effects)
     for round_ in range(1, config.rounds + 1):
         ranking = rank_effects(current.problem.posterior, _draws(current), mismatch, config.catalogue)
         rankings.append(ranking)
@@ -263,7 +264,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         not_fitted += unfitted
         for n in unfitted:
             say(f"round {round_}: not fitting {n.model}: {n.reason}")
-        hosted = _hosted(rec, current, mismatch, ranking, first_fits(results, damping, effects), config.catalogue)
+        hosted = _hosted(rec, current, mismatch, ranking, first, config.catalogue)
         if not chosen and not hosted:
             break
         say(f"round {round_}: fitting {', '.join([current.name + '+' + c.effect for c in chosen] + list(hosted))}")
@@ -285,7 +286,6 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     recheck = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
-        first = first_fits(results, damping, effects)
         recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first, fitted=spare)
         not_fitted += recheck.not_fitted
         if recheck.switched:
@@ -434,16 +434,15 @@ def too_slow(rec, spec: str, known: dict) -> str | None:
             "fit it explicitly if it matters")
 
 
-def buildable(rec, spec: str) -> bool:
-    """Whether ``spec``'s model can be built for ``rec`` (:func:`combinable`, and what the model
-    refuses for the recording: a nonlinear effect on a free decay)."""
+def built(rec, spec: str) -> BeamModel | None:
+    """``spec``'s model for ``rec`` (N = 6), or None where it cannot be built (:func:`combinable`,
+    and what the model refuses for the recording: a nonlinear effect on a free decay)."""
     if not combinable(spec):
-        return False
+        return None
     try:
-        BeamModel(rec, spec, 6)
+        return BeamModel(rec, spec, 6)
     except ValueError:
-        return False
-    return True
+        return None
 
 
 def known_or_median(model: BeamModel, known: dict) -> dict:
@@ -658,8 +657,8 @@ def _hosted(rec, current, mismatch: Mismatch, ranking, first: dict, catalogue=No
             continue
         for host in sorted(first, key=lambda m: -first[m].evidence.log_z):
             spec = join_model(host, effects + (effect,))
-            if buildable(rec, spec):
-                hosted[spec] = (effect, known_or_median(BeamModel(rec, spec, 6), _recheck_start(first[host], current)))
+            if (model := built(rec, spec)) is not None:
+                hosted[spec] = (effect, known_or_median(model, _recheck_start(first[host], current)))
     return hosted
 
 

@@ -97,7 +97,7 @@ def test_a_bent_decay_puts_drag_or_friction_among_the_fitted_candidates():
     assert [c.effect for c in _candidates(ranking, rises, 2)] == ["quadratic_drag", "dry_friction"]
 
 
-def test_friction_the_memory_baseline_cannot_carry_is_fitted_with_the_best_damping_model_that_can():
+def test_friction_the_memory_baseline_cannot_carry_is_fitted_with_every_damping_model_that_can():
     """A bent decay points to friction, which a baseline with time hysteresis (q2) cannot carry and
     the screen therefore cannot rank: it is fitted with every damping model of the first comparison
     that can, the best of that comparison first (air, then q1 and q3), with the baseline's effects,
