@@ -71,8 +71,14 @@ Friction: exact stick-slip, events located inside the steps
   otherwise it slides on (normally reversed); a stuck tip starts to slide, in the direction of
   the demand, when the demand leaves :math:`\pm F_c`. Sub-step parts of a step are propagated
   exactly; the sub-step shape of the force enters the output through the step's mean and
-  first moment. Default U = 8: on a hammer test with hundreds of events, 0.14% of the
-  friction effect's RMS.
+  first moment. Default U = 16: on a hammer test with hundreds of events, 0.06% of the
+  friction effect's RMS. Its error jumps wherever an event crosses a fine node, so the
+  likelihood is rough on the scale of these jumps; on a long quiet record that scale reaches
+  the posterior's own, and the samplers' moves stall: on 8 s of a released paper beam with
+  20 mN of friction at 409.6 Hz, the log likelihood's jitter along log EI (steps 1e-5, a
+  third of its posterior sd) is 1.3 nats at U = 8 and 0.14 at U = 16
+  (tests/response/test_nonlinear.py), at about 1.5 x the cost per simulation
+  (benchmarks/nonlinear_long.py).
 * The whole event loop runs in compiled code, one call per simulation
   (:func:`bayesbeam.response._kernels.friction_run`): the sliding phases with every reversal
   inside them (:func:`~bayesbeam.response._kernels.friction_slide`), the held phases, the
@@ -111,8 +117,9 @@ from bayesbeam.response import _kernels
 from bayesbeam.response.linear import FrequencyGrid
 from bayesbeam.response.system import SecondOrderSystem
 
-#: fine steps per sample (h = dt / U), chosen from the convergence study in the tests
-SUBSTEPS = {"dry_friction": 8, "quadratic_drag": 2}
+#: fine steps per sample (h = dt / U), chosen from the convergence study in the tests and, for
+#: friction, the likelihood's smoothness on long records (module docstring)
+SUBSTEPS = {"dry_friction": 16, "quadratic_drag": 2}
 #: samples integrated before the first and after the last sample: W's kernel (and the filtered
 #: input's tails) have a Gaussian envelope of about 20 samples standard deviation, below 1e-13
 #: at 160
