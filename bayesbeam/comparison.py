@@ -154,7 +154,8 @@ def expand_model_sets(names) -> list[str]:
 
 
 def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, executor=None,
-            log=None, starts: dict | None = None, rivals: dict | None = None) -> tuple[dict, dict]:
+            log=None, starts: dict | None = None, rivals: dict | None = None,
+            optimised: dict | None = None) -> tuple[dict, dict]:
     """Compare ``models`` (names, or named sets of :data:`MODEL_SETS`) on ``rec``: ``(results, summary)``.
 
     ``results`` maps each model to its :class:`ModelResult`; ``summary`` is the JSON-ready
@@ -163,7 +164,8 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     text, or None. ``starts``: model -> parameter values to optimise from as well (see
     :func:`~bayesbeam.inference.fit.choose_discretisation`). ``rivals``: model -> Evidence of
     models fitted before, not refitted and not in the results, that may lead when :func:`beaten`
-    decides which repeats to skip.
+    decides which repeats to skip. ``optimised``: model -> what :func:`optimise_job` returned for
+    it (with this ``config``), not optimised again.
     """
     config = config or CompareConfig()
     executor = executor or SerialExecutor()
@@ -174,9 +176,11 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     progress(f"comparing {len(models)} models: {', '.join(models)}")
     for model, why in left_out.items():
         progress(f"left out {model}: {why}")
+    optimised = optimised or {}
     with progress.stage("optimising", len(models), "model") as bar:
-        stage1 = executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i), (starts or {}).get(m))
-                                              for i, m in enumerate(models)], bar=bar)
+        fresh = iter(executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i), (starts or {}).get(m))
+                                                 for i, m in enumerate(models) if m not in optimised], bar=bar))
+        stage1 = [optimised[m] if m in optimised else next(fresh) for m in models]
     posteriors = {m: problem.posterior for m, (problem, _, _) in zip(models, stage1)}
     with progress.stage("evidence (SMC)", len(models) * config.repeats, "run") as bar:
         evidences, stopped = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,
@@ -269,11 +273,14 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
 
 
 def _ceilings(posteriors: dict, stage1) -> dict:
-    """Each model's log likelihood at its optimum (its log posterior there less the log prior: no
-    second evaluation): with the highest of its SMC particles', the ceiling of its log evidence
-    (:func:`beaten`)."""
-    return {m: optimum.log_posterior - posteriors[m].log_prior(optimum.theta)
-            for m, (_, optimum, _) in zip(posteriors, stage1)}
+    """Each model's log likelihood at its optimum: with the highest of its SMC particles', the
+    ceiling of its log evidence (:func:`beaten`)."""
+    return {m: optimum_log_likelihood(posteriors[m], optimum) for m, (_, optimum, _) in zip(posteriors, stage1)}
+
+
+def optimum_log_likelihood(posterior, optimum) -> float:
+    """The log likelihood at ``optimum``: its log posterior less the log prior (no second evaluation)."""
+    return optimum.log_posterior - posterior.log_prior(optimum.theta)
 
 
 def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor, bar=None) -> dict:

@@ -144,3 +144,20 @@ def test_models_that_need_a_missing_material_table_are_left_out_with_the_fix():
     assert material_left_out(rec, list(LITERATURE_MODELS))[0] == [m for m in LITERATURE_MODELS if m != "thermoelastic"]
     with_table = replace(rec, extra={"material": {"temperature": 293.0}})
     assert material_left_out(with_table, ["q1", "thermoelastic"]) == (["q1", "thermoelastic"], {})
+
+
+def test_a_model_given_its_optimum_is_not_optimised_again(monkeypatch):
+    """compare(optimised=...) takes a model's optimisation as given (the diagnosis optimises the
+    hosts of a nonlinear effect itself): optimise_job runs for the other model only, and the given
+    optimum is the result's."""
+    import bayesbeam.comparison as cmp
+    from tests.diagnosis_cases import CONFIG, recording
+
+    rec = recording(None)
+    config = CONFIG.compare
+    given = cmp.optimise_job((rec, "q1", config, 7, None))
+    asked = []
+    optimise = cmp.optimise_job
+    monkeypatch.setattr(cmp, "optimise_job", lambda args: asked.append(args[1]) or optimise(args))
+    results, _ = cmp.compare(rec, ["q1", "air"], config, optimised={"q1": given})
+    assert asked == ["air"] and results["q1"].optimum is given[1] and results["q1"].problem is given[0]

@@ -296,6 +296,51 @@ def test_the_best_host_of_a_nonlinear_effect_is_its_trial_and_the_recheck_reuses
     assert recheck.best == "q1+dry_friction" and not recheck.switched
 
 
+def test_a_host_whose_optimum_trails_the_best_host_of_its_effect_starts_again_from_its_values():
+    """cross_starts: q1+dry_friction, 10 nats below air+dry_friction's optimum, starts again from
+    its own values with air's put in for the parameters they share (EI, gamma, F_c; its cdI kept);
+    q3 (3 nats below: within DECISIVE) and the drag hosts (compared only among themselves) do not."""
+    from bayesbeam.diagnosis import cross_starts
+
+    effect_of = {"air+dry_friction": "dry_friction", "q1+dry_friction": "dry_friction",
+                 "q3+dry_friction": "dry_friction", "q1+quadratic_drag": "quadratic_drag",
+                 "air+quadratic_drag": "quadratic_drag"}
+    optima = {"air+dry_friction": ({"EI": 44.0, "gamma": 0.3, "F_c": 0.02}, 100.0),
+              "q1+dry_friction": ({"EI": 43.0, "gamma": 0.5, "cdI": 7e-5, "F_c": 0.03}, 90.0),
+              "q3+dry_friction": ({"EI": 43.5, "gamma": 0.2, "a": 1e-4, "b": 0.01, "F_c": 0.025}, 97.0),
+              "q1+quadratic_drag": ({"EI": 44.1, "gamma": 0.3, "cdI": 7e-5, "c_q": 1.0}, 50.0),
+              "air+quadratic_drag": ({"EI": 44.1, "gamma": 0.3, "c_q": 1.0}, 52.0)}
+    again = cross_starts(effect_of, optima)
+    assert again == {"q1+dry_friction": ({"EI": 44.0, "gamma": 0.3, "cdI": 7e-5, "F_c": 0.02}, "air+dry_friction", 10.0)}
+
+
+def test_hosts_are_optimised_again_from_the_best_hosts_values_and_the_higher_optimum_kept(monkeypatch):
+    """_optimised_hosts with optimise_job replaced: each host is optimised from its own start, the
+    one trailing by more than DECISIVE again from the best host's values, and the better of its two
+    optima is kept (q1's second optimum, 2 nats below air's, here; a worse second one is not)."""
+    import bayesbeam.diagnosis as dg
+
+    log_l = {("air+dry_friction", "own"): 100.0, ("q1+dry_friction", "own"): 50.0}
+    calls = []
+
+    def fake_optimise(args):
+        _rec, spec, _config, _seed, start = args
+        origin = start.get("origin", "own")
+        calls.append((spec, origin))
+        value = log_l.get((spec, origin), second)
+        post = SimpleNamespace(split=lambda theta: ({"EI": 44.0, "F_c": theta[0], "origin": spec}, {}),
+                               log_prior=lambda theta: 0.0)
+        return SimpleNamespace(posterior=post), SimpleNamespace(theta=[value], log_posterior=value), {}
+
+    monkeypatch.setattr(dg, "optimise_job", fake_optimise)
+    hosted = {"air+dry_friction": ("dry_friction", {}), "q1+dry_friction": ("dry_friction", {})}
+    for second, kept in ((98.0, 98.0), (40.0, 50.0)):
+        calls.clear()
+        optima = dg._optimised_hosts(None, hosted, dg.DiagnoseConfig(), None, None)
+        assert calls == [("air+dry_friction", "own"), ("q1+dry_friction", "own"), ("q1+dry_friction", "air+dry_friction")]
+        assert optima["q1+dry_friction"][1].log_posterior == kept and optima["air+dry_friction"][1].log_posterior == 100.0
+
+
 def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
     """recheck_damping with compare's fits replaced by results of the given log evidences; returns
     (DampingRecheck, the models compare was asked to fit)."""
