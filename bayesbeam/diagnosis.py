@@ -724,9 +724,9 @@ def _optimised_hosts(rec, hosted: dict, config: DiagnoseConfig, executor, log) -
     for (spec, (_, source, behind)), redone in zip(again.items(), executor.map(optimise_job, jobs)):
         if redone[1].log_posterior > optima[spec][1].log_posterior:
             optima[spec] = redone
-        now = _at_optimum(optima[source])[1] - _at_optimum(optima[spec])[1]
+        now = _at_optimum(optima[spec])[1] - _at_optimum(optima[source])[1]
         say(f"{spec}: its optimum's log likelihood {behind:.1f} nats below {source}'s; optimised again from "
-            f"that host's values: {now:.1f} nats below")
+            f"that host's values: {abs(now):.1f} nats {'above' if now > 0 else 'below'}")
     return optima
 
 
