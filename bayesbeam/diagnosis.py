@@ -707,9 +707,10 @@ def _optimised_hosts(rec, hosted: dict, config: DiagnoseConfig, executor, log) -
     The hosts share EI, gamma and the effect's parameters, and on a long record the friction
     likelihood has many sharp modes (along F_c alone, the others held, local maxima a few tenths
     of a percent apart with dips of tens of nats between them), so an optimisation from a host's
-    own start can end in a poor one. On the 8 s friction release (benchmarks/nonlinear_long.py) q1+dry_friction's ended
-    993 nats below q3+dry_friction's, although q1 is the truth and q3 adds spatial hysteresis to
-    q1's air damping; its SMC, from that optimum, stayed there, and q3 became the damping model.
+    own start can end in a poor one. On the 8 s friction release (benchmarks/nonlinear_long.py)
+    q1+dry_friction's ended 993 nats below q3+dry_friction's, although q1 is the truth and q3
+    adds spatial hysteresis to q1's air damping; its SMC, from that optimum, stayed there, and q3
+    became the damping model.
     """
     if not hosted:
         return {}
@@ -746,7 +747,7 @@ def cross_starts(effect_of: dict, optima: dict) -> dict:
     effect by more than :data:`DECISIVE` nats starts from its own values with the best host's
     put in for every parameter they share."""
     again = {}
-    for effect in set(effect_of.values()):
+    for effect in dict.fromkeys(effect_of.values()):     # in order: each redo's seed follows its place
         group = [s for s in effect_of if effect_of[s] == effect]
         best = max(group, key=lambda s: optima[s][1])
         for spec in group:
