@@ -314,8 +314,8 @@ def prepare(system):
     form's choice and then the split (``low_rank``), the complex modes (``complex``), the band
     order (``banded``) or the modal damping and memory (``diagonal``)."""
     needs = {"low_rank": ("_modal_split",), "complex": ("_modal_state_modes",), "banded": ("_band",),
-             "diagonal": ("_modal_damping",) + (("_modal_memory",) if system.relaxation else ()),
-             "dense": ("_modal_damping", "_modal_memory")}
+             "diagonal": ("modal_damping",) + (("_modal_memory",) if system.relaxation else ()),
+             "dense": ("modal_damping", "_modal_memory")}
     for name in needs[system.form]:
         getattr(system, name)
     return system
