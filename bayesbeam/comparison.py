@@ -136,6 +136,17 @@ def smc_job(args):
     return smc(posterior.terms, reference, np.random.default_rng(seed), n_particles=particles, min_moved=min_moved)
 
 
+def optimise_models(rec, models, config, executor, starts: dict | None = None, skip=(), bar=None) -> dict:
+    """model -> what :func:`optimise_job` returns, for ``models`` but those in ``skip``, in
+    parallel on ``executor``. A model's seed follows its place in ``models`` (``config.seed``), so
+    it is optimised the same whether or not others are skipped, here or in :func:`compare`.
+    ``starts``: model -> parameter values to optimise from as well."""
+    seeds = np.random.SeedSequence(config.seed).spawn(3)[0]
+    todo = [(i, m) for i, m in enumerate(models) if m not in skip]
+    jobs = [(rec, m, config, _seed(seeds, i), (starts or {}).get(m)) for i, m in todo]
+    return dict(zip([m for _, m in todo], executor.map(optimise_job, jobs, bar=bar)))
+
+
 def check_job(args):
     """Job 3: posterior predictive checks and the screens' pointwise terms of one model."""
     posterior, draws, seed, replicates = args
@@ -177,10 +188,9 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     for model, why in left_out.items():
         progress(f"left out {model}: {why}")
     optimised = optimised or {}
-    with progress.stage("optimising", len(models), "model") as bar:
-        fresh = iter(executor.map(optimise_job, [(rec, m, config, _seed(seeds[0], i), (starts or {}).get(m))
-                                                 for i, m in enumerate(models) if m not in optimised], bar=bar))
-        stage1 = [optimised[m] if m in optimised else next(fresh) for m in models]
+    with progress.stage("optimising", len([m for m in models if m not in optimised]), "model") as bar:
+        optimised = {**optimised, **optimise_models(rec, models, config, executor, starts, optimised, bar)}
+    stage1 = [optimised[m] for m in models]
     posteriors = {m: problem.posterior for m, (problem, _, _) in zip(models, stage1)}
     with progress.stage("evidence (SMC)", len(models) * config.repeats, "run") as bar:
         evidences, stopped = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,

@@ -17,7 +17,7 @@ r"""What is the best damping model missing? Locate, name, model and show (the di
    or friction that the current damping model cannot carry (a memory mechanism) is fitted with
    each damping model of the first comparison that can, the best of them its trial (:func:`_hosted`;
    a host whose optimum trails another's is optimised again from that one's values,
-   :func:`_optimised_hosts`). A
+   :func:`_optimised`). A
    candidate is **added** when
 
    * its log Bayes factor against the current model exceeds :data:`DECISIVE` = 5 nats
@@ -76,6 +76,7 @@ from bayesbeam.comparison import (
     left_out_words,
     material_left_out,
     optimise_job,
+    optimise_models,
     optimum_log_likelihood,
     posterior_summary,
 )
@@ -90,6 +91,7 @@ from bayesbeam.inference.priors import (
 from bayesbeam.model import BeamModel, join_model, resolve_model, split_model
 from bayesbeam.physics.effects import REGISTRY as EFFECTS
 from bayesbeam.physics.effects.mains_lines import nominal_mains
+from bayesbeam.progress import as_progress
 from bayesbeam.saved_comparison import SavedComparison
 
 #: decisive log Bayes factor (nats) for adding an effect; see the module docstring
@@ -473,9 +475,9 @@ def _fittable(rec, current, candidates: list, round_: int) -> tuple[list, list]:
 
 
 def _optimum_values(result) -> dict:
-    """The fitted model's parameters (by name) at its optimum."""
-    post = result.problem.posterior
-    return {n: v for n, v in post.split(result.optimum.theta)[0].items() if n in post.model_names}
+    """The fitted model's parameters (by name) at its optimum, without the set-up's nuisances."""
+    values = _at_optimum(result.problem, result.optimum)[0]
+    return {n: v for n, v in values.items() if n in result.problem.posterior.model_names}
 
 
 def _recheck_start(damping, current) -> dict:
@@ -652,7 +654,7 @@ def _hosted(rec, current, mismatch: Mismatch, ranking, first: dict, catalogue=No
     never be fitted. That comparison, misled by the friction, cannot say which host is right, so
     every host is fitted, together (:func:`_best_hosted` takes the best as the effect's trial, its
     log Bayes factor against ``current``; adding it changes the damping model with it; a host's
-    optimisation is repeated from the best host's values where it trails, :func:`_optimised_hosts`),
+    optimisation is repeated from the best host's values where it trails, :func:`_optimised`),
     and the damping re-check reuses the other hosts' fits when nothing else was added.
     """
     effects = split_model(current.name)[1]
@@ -679,12 +681,12 @@ def _best_hosted(hosted: dict, results: list) -> dict:
 
 def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log, hosted=None) -> list:
     """ModelResults of ``current + effect`` for each candidate, then of each ``hosted`` model
-    (:func:`_hosted`), in one comparison (parallel over models).
+    (:func:`_hosted`), in one comparison (parallel over models), from :func:`_optimised`.
 
-    Each is optimised from its global search and, as well, from the current model's optimum with
-    the effect at the signature's value: the augmented model nests the current one, so its
-    optimum must be at least as high, and a global search alone can end in a worse mode. That
-    start's EI is the current model's, which may have absorbed the effect (a rigid root on a
+    Each candidate is optimised from its global search and, as well, from the current model's
+    optimum with the effect at the signature's value: the augmented model nests the current one,
+    so its optimum must be at least as high, and a global search alone can end in a worse mode.
+    That start's EI is the current model's, which may have absorbed the effect (a rigid root on a
     softer beam stands in for a compliant root in the first mode), so EI is also re-determined
     there with the effect and every other parameter held, and polished from as well
     (:func:`~bayesbeam.inference.fit.local_starts`); the highest optimum is kept.
@@ -692,17 +694,18 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
     specs = [f"{current.name}+{c.effect}" for c in candidates]
     starts = {s: _probe_values(current, c) for s, c in zip(specs, candidates) if c.value is not None}
     hosted = hosted or {}
-    results, _ = compare(rec, specs + list(hosted), config.compare, executor, log, starts=starts,
+    results, _ = compare(rec, specs + list(hosted), config.compare, executor, log,
                          rivals={current.name: current.evidence},
-                         optimised=_optimised_hosts(rec, hosted, config, executor, log))
+                         optimised=_optimised(rec, specs, starts, hosted, config, executor, log))
     return [results[s] for s in specs + list(hosted)]
 
 
-def _optimised_hosts(rec, hosted: dict, config: DiagnoseConfig, executor, log) -> dict:
-    """The optimisations of the models of ``hosted`` (:func:`_hosted`; spec -> what
-    :func:`~bayesbeam.comparison.optimise_job` returns), each from its start and, where its
-    optimum trails the best host of its effect (:func:`cross_starts`), again from that host's
-    values: the higher optimum is kept.
+def _optimised(rec, specs: list, starts: dict, hosted: dict, config: DiagnoseConfig, executor, log) -> dict:
+    """The optimisations (spec -> what :func:`~bayesbeam.comparison.optimise_job` returns) of the
+    candidates' models ``specs`` (from ``starts`` as well, where given) and of the models of
+    ``hosted`` (:func:`_hosted`, each from its start), all in one parallel wave; then, where a
+    host's optimum trails the best host of its effect (:func:`cross_starts`), that host again
+    from the best host's values: the higher optimum is kept.
 
     The hosts share EI, gamma and the effect's parameters, and on a long record the friction
     likelihood has many sharp modes (along F_c alone, the others held, local maxima a few tenths
@@ -712,34 +715,32 @@ def _optimised_hosts(rec, hosted: dict, config: DiagnoseConfig, executor, log) -
     adds spatial hysteresis to q1's air damping; its SMC, from that optimum, stayed there, and q3
     became the damping model.
     """
-    if not hosted:
-        return {}
     executor = executor or SerialExecutor()
-    say = log or (lambda _text: None)
-    specs = list(hosted)
-    seeds = [int(s) for s in np.random.SeedSequence(config.compare.seed).generate_state(2 * len(specs))]
-    jobs = [(rec, s, config.compare, seeds[i], hosted[s][1]) for i, s in enumerate(specs)]
-    optima = dict(zip(specs, executor.map(optimise_job, jobs)))
-    again = cross_starts({s: hosted[s][0] for s in specs}, {s: _at_optimum(o) for s, o in optima.items()})
-    jobs = [(rec, s, config.compare, seeds[len(specs) + i], start) for i, (s, (start, _, _)) in enumerate(again.items())]
+    progress = as_progress(log)
+    models = specs + list(hosted)
+    with progress.stage("optimising", len(models), "model") as bar:
+        optima = optimise_models(rec, models, config.compare, executor,
+                                 {**starts, **{s: start for s, (_, start) in hosted.items()}}, bar=bar)
+    again = cross_starts({s: effect for s, (effect, _) in hosted.items()},
+                         {s: _at_optimum(*optima[s][:2]) for s in hosted})
+    seeds = np.random.SeedSequence([config.compare.seed, len(models)]).generate_state(len(again))
+    jobs = [(rec, s, config.compare, int(seed), start) for seed, (s, (start, _, _)) in zip(seeds, again.items())]
     for (spec, (_, source, behind)), redone in zip(again.items(), executor.map(optimise_job, jobs)):
         if redone[1].log_posterior > optima[spec][1].log_posterior:
             optima[spec] = redone
-        now = _at_optimum(optima[spec])[1] - _at_optimum(optima[source])[1]
-        say(f"{spec}: its optimum's log likelihood {behind:.1f} nats below {source}'s; optimised again from "
-            f"that host's values: {abs(now):.1f} nats {'above' if now > 0 else 'below'}")
+        now = _at_optimum(*optima[spec][:2])[1] - _at_optimum(*optima[source][:2])[1]
+        progress(f"{spec}: its optimum's log likelihood {behind:.1f} nats below {source}'s; optimised again "
+                 f"from that host's values: {abs(now):.1f} nats {'above' if now > 0 else 'below'}")
     return optima
 
 
-def _at_optimum(optimised) -> tuple[dict, float]:
-    """(model parameter values by name, log likelihood) at the optimum of what
-    :func:`~bayesbeam.comparison.optimise_job` returned."""
-    problem, optimum, _ = optimised
+def _at_optimum(problem, optimum) -> tuple[dict, float]:
+    """(parameter values by name, log likelihood) at ``problem``'s ``optimum``."""
     return problem.posterior.split(optimum.theta)[0], optimum_log_likelihood(problem.posterior, optimum)
 
 
 def cross_starts(effect_of: dict, optima: dict) -> dict:
-    """The hosts to optimise again (:func:`_optimised_hosts`): spec -> (values to start from, the
+    """The hosts to optimise again (:func:`_optimised`): spec -> (values to start from, the
     best host it takes them from, how many nats its optimum's log likelihood trails that host's).
 
     ``effect_of``: spec -> the nonlinear effect it hosts; ``optima``: spec -> (its optimum's

@@ -3,6 +3,8 @@
 The statistical claims (the true model ranks first, its parameters inside their intervals) and the
 summary's layout are tested on recordings compare() did not make: tests/acceptance/test_compare.py.
 """
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -106,8 +108,6 @@ def test_named_model_sets_expand_and_every_literature_model_simulates():
     """``paper`` is the default set, ``literature`` the newer mechanisms (the root dashpot with its
     spring), ``all`` both; names repeat once. Each literature model builds on a recording with a
     [material] table and simulates finite signals at its default priors' medians."""
-    from dataclasses import replace
-
     from bayesbeam.inference.priors import default_priors
     from bayesbeam.model import BeamModel
     from tests.physics.effects.helpers import recording
@@ -129,8 +129,6 @@ def test_models_that_need_a_missing_material_table_are_left_out_with_the_fix():
     ``literature``, with the reason and the keys to add; alone it stays, so the model refuses the
     recording; a [material] table present (even one that would be refused) leaves out nothing.
     plumbing: the recording only supplies its beam.toml tables; nothing is fitted."""
-    from dataclasses import replace
-
     from bayesbeam.comparison import MODEL_SETS, material_left_out
     from tests.physics.effects.helpers import recording
 
@@ -161,3 +159,21 @@ def test_a_model_given_its_optimum_is_not_optimised_again(monkeypatch):
     monkeypatch.setattr(cmp, "optimise_job", lambda args: asked.append(args[1]) or optimise(args))
     results, _ = cmp.compare(rec, ["q1", "air"], config, optimised={"q1": given})
     assert asked == ["air"] and results["q1"].optimum is given[1] and results["q1"].problem is given[0]
+
+
+def test_a_models_optimisation_seed_follows_its_place_whatever_is_skipped(monkeypatch):
+    """optimise_models: each model's seed depends on its place in the list and config.seed only, so
+    the diagnosis, optimising a comparison's models before compare (which skips them), gets the
+    optimisations compare would have made; distinct places, distinct seeds; starts are passed."""
+    import bayesbeam.comparison as cmp
+    from bayesbeam.executors import SerialExecutor
+
+    monkeypatch.setattr(cmp, "optimise_job", lambda args: (args[3], args[4]))
+    models = ["q1", "air", "q3"]
+    config = cmp.CompareConfig()
+    every = cmp.optimise_models(None, models, config, SerialExecutor(), {"q3": {"EI": 1.0}})
+    some = cmp.optimise_models(None, models, config, SerialExecutor(), skip={"q1"})
+    other = cmp.optimise_models(None, models, replace(config, seed=config.seed + 1), SerialExecutor())
+    assert list(some) == ["air", "q3"] and some["air"] == every["air"] and some["q3"][0] == every["q3"][0]
+    assert every["q3"][1] == {"EI": 1.0} and some["q3"][1] is None
+    assert len({s for s, _ in every.values()}) == 3 and other["air"][0] != every["air"][0]

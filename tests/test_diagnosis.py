@@ -315,17 +315,20 @@ def test_a_host_whose_optimum_trails_the_best_host_of_its_effect_starts_again_fr
 
 
 def test_hosts_are_optimised_again_from_the_best_hosts_values_and_the_higher_optimum_kept(monkeypatch):
-    """_optimised_hosts with optimise_job replaced: each host is optimised from its own start, the
-    one trailing by more than DECISIVE again from the best host's values, and the better of its two
-    optima is kept (q1's second optimum, 2 nats below air's, here; a worse second one is not)."""
+    """_optimised with optimise_job replaced: the candidate and each host are optimised in one wave
+    from their own starts, then the host trailing by more than DECISIVE again from the best host's
+    values, and the better of its two optima is kept (q1's second optimum, 2 nats below air's,
+    here; a worse second one is not). The candidate is never optimised again."""
+    import bayesbeam.comparison as cmp
     import bayesbeam.diagnosis as dg
 
-    log_l = {("air+dry_friction", "own"): 100.0, ("q1+dry_friction", "own"): 50.0}
+    log_l = {("air+dry_friction", "own"): 100.0, ("q1+dry_friction", "own"): 50.0,
+             ("q2+root_compliance", "own"): 10.0}
     calls = []
 
     def fake_optimise(args):
         _rec, spec, _config, _seed, start = args
-        origin = start.get("origin", "own")
+        origin = (start or {}).get("origin", "own")
         calls.append((spec, origin))
         value = log_l.get((spec, origin), second)
         post = SimpleNamespace(split=lambda theta: ({"EI": 44.0, "F_c": theta[0], "origin": spec}, {}),
@@ -333,12 +336,15 @@ def test_hosts_are_optimised_again_from_the_best_hosts_values_and_the_higher_opt
         return SimpleNamespace(posterior=post), SimpleNamespace(theta=[value], log_posterior=value), {}
 
     monkeypatch.setattr(dg, "optimise_job", fake_optimise)
+    monkeypatch.setattr(cmp, "optimise_job", fake_optimise)
     hosted = {"air+dry_friction": ("dry_friction", {}), "q1+dry_friction": ("dry_friction", {})}
     for second, kept in ((98.0, 98.0), (40.0, 50.0)):
         calls.clear()
-        optima = dg._optimised_hosts(None, hosted, dg.DiagnoseConfig(), None, None)
-        assert calls == [("air+dry_friction", "own"), ("q1+dry_friction", "own"), ("q1+dry_friction", "air+dry_friction")]
+        optima = dg._optimised(None, ["q2+root_compliance"], {}, hosted, dg.DiagnoseConfig(), None, None)
+        assert calls == [("q2+root_compliance", "own"), ("air+dry_friction", "own"), ("q1+dry_friction", "own"),
+                         ("q1+dry_friction", "air+dry_friction")]
         assert optima["q1+dry_friction"][1].log_posterior == kept and optima["air+dry_friction"][1].log_posterior == 100.0
+        assert optima["q2+root_compliance"][1].log_posterior == 10.0
 
 
 def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
