@@ -188,8 +188,10 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     for model, why in left_out.items():
         progress(f"left out {model}: {why}")
     optimised = optimised or {}
-    with progress.stage("optimising", len([m for m in models if m not in optimised]), "model") as bar:
-        optimised = {**optimised, **optimise_models(rec, models, config, executor, starts, optimised, bar)}
+    todo = [m for m in models if m not in optimised]
+    if todo:                                          # no empty bar when every model came optimised
+        with progress.stage("optimising", len(todo), "model") as bar:
+            optimised = {**optimised, **optimise_models(rec, models, config, executor, starts, optimised, bar)}
     stage1 = [optimised[m] for m in models]
     posteriors = {m: problem.posterior for m, (problem, _, _) in zip(models, stage1)}
     with progress.stage("evidence (SMC)", len(models) * config.repeats, "run") as bar:
