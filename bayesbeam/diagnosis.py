@@ -476,7 +476,7 @@ def _fittable(rec, current, candidates: list, round_: int) -> tuple[list, list]:
 
 def _optimum_values(result) -> dict:
     """The fitted model's parameters (by name) at its optimum, without the set-up's nuisances."""
-    values = _at_optimum(result.problem, result.optimum)[0]
+    values = _values_at(result.problem, result.optimum)
     return {n: v for n, v in values.items() if n in result.problem.posterior.model_names}
 
 
@@ -736,7 +736,12 @@ def _optimised(rec, specs: list, starts: dict, hosted: dict, config: DiagnoseCon
 
 def _at_optimum(problem, optimum) -> tuple[dict, float]:
     """(parameter values by name, log likelihood) at ``problem``'s ``optimum``."""
-    return problem.posterior.split(optimum.theta)[0], optimum_log_likelihood(problem.posterior, optimum)
+    return _values_at(problem, optimum), optimum_log_likelihood(problem.posterior, optimum)
+
+
+def _values_at(problem, optimum) -> dict:
+    """Every parameter's value by name (the set-up's nuisances too) at ``problem``'s ``optimum``."""
+    return problem.posterior.split(optimum.theta)[0]
 
 
 def cross_starts(effect_of: dict, optima: dict) -> dict:
