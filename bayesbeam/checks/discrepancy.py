@@ -294,7 +294,7 @@ def _setting(lik, posterior, centre, preds, sigma) -> Setting:
     reference = lik.predict(*posterior.split(centre))
     channel = np.argmax(strength - np.log(sigma), axis=1)
     return Setting(proj, rec.dt, f_model, bands, channel, sigma, decay_start(rec, proj), t_ref, reference,
-                   tuple(_analytic(reference[proj.i0 : proj.i1, c], band, proj.fs) for band, c in zip(bands, channel)))
+                   tuple(_analytic(reference[proj.i0 : proj.i1], bands, channel, proj.fs)))
 
 
 def _scaled(noise: dict, kappa: np.ndarray, channels) -> dict:
@@ -404,22 +404,35 @@ def mode_phases(y: np.ndarray, s: Setting) -> np.ndarray:
     proj = s.projection
     t = np.arange(proj.i0, proj.i1) / proj.fs - s.t_ref
     t_decay = s.start_index / proj.fs - s.t_ref
-    for m, ((lo, hi), c, b) in enumerate(zip(s.bands, s.channel, s.reference_bands)):
-        a = _analytic(y[proj.i0 : proj.i1, c], (lo, hi), proj.fs)
+    analytic = _analytic(y[proj.i0 : proj.i1], s.bands, s.channel, proj.fs)
+    for m, ((lo, hi), c, b, a) in enumerate(zip(s.bands, s.channel, s.reference_bands, analytic)):
         settle = SETTLE / (hi - lo)
         floor = PHASE_FLOOR * s.sigma[c] * np.sqrt(2 * (hi - lo) / proj.fs)
         keep = (t >= t_decay + settle) & (t <= t[-1] - settle) & (np.abs(b) > floor)
         if keep.sum() >= 16:
             phi = np.unwrap(np.angle(a[keep] * np.conj(b[keep])))
-            out[m] = np.angle(np.exp(1j * np.polyfit(t[keep], phi, 1, w=np.abs(b[keep]))[1]))
+            out[m] = np.angle(np.exp(1j * _weighted_intercept(t[keep], phi, np.abs(b[keep]) ** 2)))
     return out
 
 
-def _analytic(x: np.ndarray, band, fs: float) -> np.ndarray:
-    """Analytic signal of x band-passed to ``band`` (Hz): the envelope estimator's filter applied
-    forward and backward (gain |H|^2, zero phase), in the frequency domain with zero padding."""
-    gain = _analytic_gain(float(band[0]), float(band[1]), float(fs), len(x))
-    return np.fft.ifft(np.fft.fft(x, 2 * len(x)) * gain)[: len(x)]
+def _weighted_intercept(t: np.ndarray, y: np.ndarray, w: np.ndarray) -> float:
+    """The value at t = 0 of the straight line fitted to (t, y) by least squares with weights w
+    (minimising sum w (y - line)^2; centred sums, exact for any offset of t)."""
+    total = w.sum()
+    t_mean, y_mean = w @ t / total, w @ y / total
+    dt = t - t_mean
+    return float(y_mean - t_mean * (w @ (dt * (y - y_mean))) / (w @ (dt * dt)))
+
+
+def _analytic(x: np.ndarray, bands, channel, fs: float) -> np.ndarray:
+    """(m, n): analytic signal of channel ``channel[m]`` of x (n, channels) band-passed to
+    ``bands[m]`` (Hz): the envelope estimator's filter applied forward and backward (gain |H|^2,
+    zero phase), in the frequency domain with zero padding; one FFT per channel and one inverse
+    FFT of all bands."""
+    n = x.shape[0]
+    spectra = np.fft.fft(x, 2 * n, axis=0)
+    gains = np.array([_analytic_gain(float(lo), float(hi), float(fs), n) for lo, hi in bands]).reshape(len(bands), 2 * n)
+    return np.fft.ifft(spectra[:, np.asarray(channel)].T * gains, axis=1)[:, :n]
 
 
 @lru_cache(maxsize=64)

@@ -170,3 +170,40 @@ def test_holm_step_down():
     """Holm at 0.05 over four p-values: thresholds 0.0125, 0.0167, 0.025, 0.05 in order."""
     p = np.array([0.01, 0.04, 0.016, 0.3])
     np.testing.assert_array_equal(holm(p, 0.05), [True, False, True, False])
+
+
+def test_the_phase_lines_intercept_is_weighted_least_squares():
+    """_weighted_intercept (the phase feature's line at t = 0) equals numpy's polyfit, whose
+    weights multiply the residuals (so sqrt(w)), to 1e-9 rad on a noisy line sampled far from
+    t = 0 (5-6 s: the centred sums keep the intercept exact); ignoring the weights moves it by
+    more than 1e-3 rad, so the comparison has power."""
+    from bayesbeam.checks.discrepancy import _weighted_intercept
+
+    rng = np.random.default_rng(4)
+    t = np.linspace(5.0, 6.0, 300)
+    w = rng.uniform(0.01, 1.0, t.size) ** 4
+    y = 0.7 - 2.5 * t + 0.05 * rng.standard_normal(t.size)
+    expected = np.polyfit(t, y, 1, w=np.sqrt(w))[1]
+    assert abs(_weighted_intercept(t, y, w) - expected) < 1e-9
+    assert abs(_weighted_intercept(t, y, np.ones_like(w)) - expected) > 1e-3
+
+
+def test_the_analytic_signal_of_each_band_is_its_channels_tone():
+    """_analytic, all bands at once: two channels, each a tone at the centre of its band (20 Hz on
+    channel 0, 60 Hz on channel 1), each band also given the other channel. Away from the ends
+    (0.25 s) the analytic signal of a tone in its own band is the tone's complex exponential
+    times the forward-backward gain |H(f)|^2, 1 at a Butterworth band's geometric centre; the
+    tolerance, 3e-2, holds the narrow 16-25 Hz band's ringing from the record's abrupt ends (1.6e-2
+    at 0.25 s), and a gain 10 % off fails it. Of the other channel's tone almost nothing is left
+    (measured 1e-3; bound 5e-3): the rows follow ``channel``, not the bands' order."""
+    from bayesbeam.checks.discrepancy import _analytic
+
+    fs, n = 512.0, 1024
+    t = np.arange(n) / fs
+    x = np.column_stack([np.cos(2 * np.pi * 20.0 * t), np.cos(2 * np.pi * 60.0 * t)])
+    bands, channel = [(16.0, 25.0), (50.0, 72.0), (16.0, 25.0), (50.0, 72.0)], [0, 1, 1, 0]
+    out = _analytic(x, bands, channel, fs)
+    middle = (t > 0.25) & (t < t[-1] - 0.25)
+    for row, f0 in ((0, 20.0), (1, 60.0)):       # each band's geometric centre: |H|^2 = 1 there
+        assert np.max(np.abs(out[row, middle] - np.exp(2j * np.pi * f0 * t[middle]))) < 3e-2, row
+    assert np.max(np.abs(out[2:, middle])) < 5e-3
