@@ -38,19 +38,19 @@ def pytest_configure(config):
 #: in collection order as they free up: starting the longest first keeps one worker from running
 #: a long module alone at the end (longest-processing-time-first scheduling)
 SLOWEST_FIRST = (
-    "tests/acceptance/test_sensor_order.py",          # 220 s
-    "tests/acceptance/test_compare.py",               # 220 s
-    "tests/studies/test_first_run.py",                # 140 s
-    "tests/report/test_diagnosis_report.py",          # 135 s
-    "tests/acceptance/test_diagnose.py",              # 135 s
-    "tests/test_python_docs.py",                      # 135 s
-    "tests/acceptance/test_calibration.py",           # 135 s
-    "tests/acceptance/test_literature.py",            # 75 s
-    "tests/test_diagnosis.py",                        # 70 s
-    "tests/inference/test_evidence.py",               # 70 s
+    "tests/acceptance/test_compare.py",               # 280 s
+    "tests/acceptance/test_sensor_order.py",          # 215 s
+    "tests/acceptance/test_diagnose.py",              # 210 s
+    "tests/checks/test_signatures.py",                # 180 s
+    "tests/test_diagnosis.py",                        # 165 s
+    "tests/test_python_docs.py",                      # 165 s
+    "tests/acceptance/test_calibration.py",           # 145 s
+    "tests/acceptance/test_literature.py",            # 135 s
+    "tests/studies/test_first_run.py",                # 95 s
+    "tests/inference/test_evidence.py",               # 75 s
     "tests/test_resume.py",                           # 55 s
-    "tests/acceptance/test_fit.py",                   # 55 s
-    "tests/checks/test_signatures.py",                # 55 s
+    "tests/report/test_diagnosis_report.py",          # 50 s
+    "tests/acceptance/test_fit.py",                   # 45 s
 )
 
 
