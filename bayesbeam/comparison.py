@@ -136,15 +136,19 @@ def smc_job(args):
     return smc(posterior.terms, reference, np.random.default_rng(seed), n_particles=particles, min_moved=min_moved)
 
 
-def optimise_models(rec, models, config, executor, starts: dict | None = None, skip=(), bar=None) -> dict:
+def optimise_models(rec, models, config, executor, log=None, starts: dict | None = None, skip=()) -> dict:
     """model -> what :func:`optimise_job` returns, for ``models`` but those in ``skip``, in
-    parallel on ``executor``. A model's seed follows its place in ``models`` (``config.seed``), so
-    it is optimised the same whether or not others are skipped, here or in :func:`compare`.
+    parallel on ``executor``, under an "optimising" bar of ``log`` (none when nothing is left to
+    optimise). A model's seed follows its place in ``models`` (``config.seed``), so it is
+    optimised the same whether or not others are skipped, here or in :func:`compare`.
     ``starts``: model -> parameter values to optimise from as well."""
     seeds = np.random.SeedSequence(config.seed).spawn(3)[0]
     todo = [(i, m) for i, m in enumerate(models) if m not in skip]
+    if not todo:
+        return {}
     jobs = [(rec, m, config, _seed(seeds, i), (starts or {}).get(m)) for i, m in todo]
-    return dict(zip([m for _, m in todo], executor.map(optimise_job, jobs, bar=bar)))
+    with as_progress(log).stage("optimising", len(jobs), "model") as bar:
+        return dict(zip([m for _, m in todo], executor.map(optimise_job, jobs, bar=bar)))
 
 
 def check_job(args):
@@ -187,11 +191,8 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     progress(f"comparing {len(models)} models: {', '.join(models)}")
     for model, why in left_out.items():
         progress(f"left out {model}: {why}")
-    optimised = optimised or {}
-    todo = [m for m in models if m not in optimised]
-    if todo:                                          # no empty bar when every model came optimised
-        with progress.stage("optimising", len(todo), "model") as bar:
-            optimised = {**optimised, **optimise_models(rec, models, config, executor, starts, optimised, bar)}
+    optimised = {**(optimised or {}), **optimise_models(rec, models, config, executor, progress, starts,
+                                                         skip=optimised or {})}
     stage1 = [optimised[m] for m in models]
     posteriors = {m: problem.posterior for m, (problem, _, _) in zip(models, stage1)}
     with progress.stage("evidence (SMC)", len(models) * config.repeats, "run") as bar:

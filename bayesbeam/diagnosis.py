@@ -718,24 +718,24 @@ def _optimised(rec, specs: list, starts: dict, hosted: dict, config: DiagnoseCon
     executor = executor or SerialExecutor()
     progress = as_progress(log)
     models = specs + list(hosted)
-    with progress.stage("optimising", len(models), "model") as bar:
-        optima = optimise_models(rec, models, config.compare, executor,
-                                 {**starts, **{s: start for s, (_, start) in hosted.items()}}, bar=bar)
-    again = cross_starts({s: effect for s, (effect, _) in hosted.items()},
-                         {s: _at_optimum(*optima[s][:2]) for s in hosted})
+    optima = optimise_models(rec, models, config.compare, executor, progress,
+                             {**starts, **{s: start for s, (_, start) in hosted.items()}})
+    again = cross_starts({s: effect for s, (effect, _) in hosted.items()}, {s: _at_optimum(optima[s]) for s in hosted})
     seeds = np.random.SeedSequence([config.compare.seed, len(models)]).generate_state(len(again))
     jobs = [(rec, s, config.compare, int(seed), start) for seed, (s, (start, _, _)) in zip(seeds, again.items())]
     for (spec, (_, source, behind)), redone in zip(again.items(), executor.map(optimise_job, jobs)):
         if redone[1].log_posterior > optima[spec][1].log_posterior:
             optima[spec] = redone
-        now = _at_optimum(*optima[spec][:2])[1] - _at_optimum(*optima[source][:2])[1]
+        now = _at_optimum(optima[spec])[1] - _at_optimum(optima[source])[1]
         progress(f"{spec}: its optimum's log likelihood {behind:.1f} nats below {source}'s; optimised again "
                  f"from that host's values: {abs(now):.1f} nats {'above' if now > 0 else 'below'}")
     return optima
 
 
-def _at_optimum(problem, optimum) -> tuple[dict, float]:
-    """(parameter values by name, log likelihood) at ``problem``'s ``optimum``."""
+def _at_optimum(optimised) -> tuple[dict, float]:
+    """(parameter values by name, log likelihood) at the optimum of what
+    :func:`~bayesbeam.comparison.optimise_job` returned."""
+    problem, optimum, _ = optimised
     return _values_at(problem, optimum), optimum_log_likelihood(problem.posterior, optimum)
 
 

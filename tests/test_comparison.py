@@ -171,7 +171,7 @@ def test_a_models_optimisation_seed_follows_its_place_whatever_is_skipped(monkey
     monkeypatch.setattr(cmp, "optimise_job", lambda args: (args[3], args[4]))
     models = ["q1", "air", "q3"]
     config = cmp.CompareConfig()
-    every = cmp.optimise_models(None, models, config, SerialExecutor(), {"q3": {"EI": 1.0}})
+    every = cmp.optimise_models(None, models, config, SerialExecutor(), starts={"q3": {"EI": 1.0}})
     some = cmp.optimise_models(None, models, config, SerialExecutor(), skip={"q1"})
     other = cmp.optimise_models(None, models, replace(config, seed=config.seed + 1), SerialExecutor())
     assert list(some) == ["air", "q3"] and some["air"] == every["air"] and some["q3"][0] == every["q3"][0]
