@@ -301,14 +301,23 @@ class _Evaluator:
 
     def __call__(self, params) -> np.ndarray:
         s = self.setting
-        y = self.simulate(params)
         if not self.exact:
-            return feature_vector(statistics(y, s, noisy=False))
+            return feature_vector(statistics(self.simulate(params), s, noisy=False))
+        y, poles = self.simulate_with_poles(params)
         m = len(s.f_model)
-        poles = _nearest_poles(self.model.poles(params), s.f_model)
+        poles = _nearest_poles(poles, s.f_model)
         return feature_vector({"frequency": np.log(np.abs(poles) / (2 * np.pi)), "damping": -poles.real / np.abs(poles),
                                "amplitude": mode_amplitudes(y, s.projection, s.bands, 0 * s.sigma),
                                "curvature": np.zeros(m), "phase": mode_phases(y, s)})
+
+    def simulate_with_poles(self, params) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`simulate`, the model's poles), a forced response and the poles from one system
+        (its eigen-decomposition serves both)."""
+        if self.model.recording.excitation.kind == "free_decay":
+            return self.simulate(params), self.model.poles(params)
+        values = self.model.values(params)
+        system = self.model.system(params)
+        return self.model.linear_response(system, values), system.poles()
 
     def simulate(self, params) -> np.ndarray:
         """The noise-free signals; a free decay's unknown initial state by least squares (weights
@@ -593,7 +602,9 @@ class _Signature:
         seen = {}
 
         def residual(beta):
-            s = seen[beta.tobytes()] = self(value, beta)
+            # least squares evaluates its start again, and may revisit a point: each is simulated once
+            key = beta.tobytes()
+            s = seen[key] = seen[key] if key in seen else self(value, beta)
             # least squares needs finite residuals: a failed evaluation fits worse than any other
             return self.space.d - self.space.weighted(s) if s is not None else np.full(self.space.d.size, FAILED)
 
