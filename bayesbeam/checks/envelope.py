@@ -22,6 +22,7 @@ stretch: equal for linear damping, unequal when the damping depends on the ampli
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy import signal
@@ -66,12 +67,19 @@ def mode_estimates(y: np.ndarray, fs: float, frequencies, start: float = 0.0,
     return ModeEstimate(*(np.array(col) for col in zip(*rows)))
 
 
+@lru_cache(maxsize=256)
+def _band_pass(lo: float, hi: float, fs: float) -> np.ndarray:
+    """The 4th-order Butterworth band-pass over (lo, hi) Hz as second-order sections: the same
+    bands are filtered in every replicate of a check and every evaluation of a screen, and the
+    design costs more than the filtering."""
+    return signal.butter(4, [lo, hi], btype="bandpass", fs=fs, output="sos")
+
+
 def _one_mode(y, time, fs, lo, hi, start, noise_sd):
     nan = (np.nan,) * 4
     if hi >= 0.45 * fs or lo <= 0:
         return nan
-    sos = signal.butter(4, [lo, hi], btype="bandpass", fs=fs, output="sos")
-    analytic = signal.hilbert(signal.sosfiltfilt(sos, y))
+    analytic = signal.hilbert(signal.sosfiltfilt(_band_pass(lo, hi, fs), y))
     settle = SETTLE / (hi - lo)
     keep = (time >= start + settle) & (time <= time[-1] - settle)
     if keep.sum() < 16:
