@@ -554,8 +554,9 @@ def test_mains_line_marginal_likelihood_equals_dense_gaussian(mains):
     cos/sin columns of 50 and 100 Hz projected by the explicit-DFT rows and S the documented rule,
     evaluated densely by scipy (4 blocks x 55 = 220 coordinates). Relative 1e-8: the dense
     covariance's condition number (asserted < 1e9: the wide prior against the noise) times eps in
-    its log-determinant. The batch path
-    (several sets at once) agrees with it to 1e-10 (the same algebra stacked)."""
+    its log-determinant. The batch path (several sets at once) agrees with the single one to 1e-10:
+    the same algebra stacked, so only rounding separates them (measured 4e-16), while against the
+    dense reference it shares the single path's 1e-8."""
     rec, model, proj, params, nz, projected, _ = mains
     lik = Likelihood(model, proj, "white")
     z = proj.project(rec.signals - model.simulate(params))
@@ -567,7 +568,7 @@ def test_mains_line_marginal_likelihood_equals_dense_gaussian(mains):
     assert lik.log_likelihood(params, nz) == pytest.approx(dense, rel=1e-8)
     other = {**params, "gamma": 0.5}
     batch = lik.log_likelihoods([params, other], [nz, nz])
-    np.testing.assert_allclose(batch, [dense, lik.log_likelihood(other, nz)], rtol=1e-10)
+    np.testing.assert_allclose(batch, [lik.log_likelihood(params, nz), lik.log_likelihood(other, nz)], rtol=1e-10)
 
 
 def test_mains_line_prediction_carries_the_fitted_line(mains):
