@@ -19,7 +19,7 @@ def add_arguments(p) -> None:
     p.add_argument("recording", help="recording directory (beam.toml + recording.csv)")
     p.add_argument("--model", help="baseline damping model, a preset or '+'-joined mechanisms (default: the best "
                                    "of --models by evidence, from a comparison run first)")
-    # the damping models of the baseline comparison (without --model) and of the damping re-check
+    # the damping models of the baseline comparison and of the damping re-check (not with --model)
     add_models_option(p, None)
     add_effect_option(p)
     p.add_argument("--from-comparison", metavar="DIR",
@@ -45,11 +45,15 @@ def diagnose_config(args):
 
 def damping_models(args) -> tuple[str, ...]:
     """The damping models ``--models`` names (sets expanded, names checked); compare's default
-    without it. Beside ``--model``, which names the one baseline, they are the models the damping
-    re-check compares with the added effects."""
+    without it. Refused beside ``--model``, which names the one baseline."""
     from bayesbeam.comparison import DEFAULT_MODELS
 
-    return DEFAULT_MODELS if args.models is None else tuple(model_list(args.models))
+    if args.models is None:
+        return DEFAULT_MODELS
+    if args.model:
+        raise UsageError(f"--model {args.model} and --models {args.models} together: --model names the one "
+                         "baseline, --models the damping models compared to choose it. Fix: give one of them.")
+    return tuple(model_list(args.models))
 
 
 def run(args) -> int:

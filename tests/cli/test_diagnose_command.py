@@ -105,15 +105,10 @@ def test_from_comparison_refuses_a_folder_that_holds_none(null, tmp_path, capsys
     assert not (tmp_path / "x").exists()
 
 
-def test_models_beside_model_are_the_recheck_s_damping_models(null):
-    """--model names the baseline; --models beside it the damping models the re-check compares
-    (compare's default set without it). Parsing only: nothing is fitted."""
-    from bayesbeam.api import options
-    from bayesbeam.cli.diagnose import diagnose_config
-    from bayesbeam.comparison import DEFAULT_MODELS
-
-    assert diagnose_config(options("diagnose", null, model="q1", models=["q1", "q3"])).models == ("q1", "q3")
-    assert diagnose_config(options("diagnose", null, model="q1")).models == DEFAULT_MODELS
+def test_model_and_models_together_are_refused(null, tmp_path, capsys):
+    assert main(["diagnose", null, "--model", "q1", "--models", "q1,q2", "--out", str(tmp_path / "x")]) == 2
+    assert "--model q1 and --models q1,q2 together" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
 
 
 @pytest.mark.parametrize("models, expected", [
