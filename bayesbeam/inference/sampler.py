@@ -42,6 +42,7 @@ import emcee
 import numpy as np
 from scipy import optimize
 
+from bayesbeam.inference.backend import BufferedHDFBackend
 from bayesbeam.inference.posterior import LogPosterior, batching
 from bayesbeam.progress import as_progress
 
@@ -485,7 +486,7 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
     n_walkers = n_walkers or max(4 * ndim, 16)
     backend = None
     if backend_path is not None:
-        backend = emcee.backends.HDFBackend(str(backend_path))
+        backend = BufferedHDFBackend(str(backend_path))
         if not resume:
             backend.reset(n_walkers, ndim)
     # the walkers of each half-step are evaluated together (emcee's vectorize), in this process or in
@@ -509,21 +510,25 @@ def run_emcee(post: LogPosterior, optimum: Optimum, rng: np.random.Generator, *,
     converged, reason = False, None
     with as_progress(progress).stage("sampling (emcee)", max_steps, "step") as bar:
         bar.advance(sampler.iteration)
-        while sampler.iteration < max_steps:
-            # chunks end at multiples of ``chunk``, so a resumed run judges convergence where an
-            # uninterrupted one does (the backend also restores emcee's random state: same draws)
-            steps = min(chunk - sampler.iteration % chunk, max_steps - sampler.iteration)
-            sampler.run_mcmc(state, steps, progress=False)
-            state = None
-            tau = sampler.get_autocorr_time(tol=0)
-            _report(bar, sampler, tau, tau_factor, max_steps, steps, chunk)
-            if previous_tau is not None and np.all(np.isfinite(tau)):
-                stable = np.all(np.abs(tau - previous_tau) < 0.05 * tau)
-                if sampler.iteration > tau_factor * np.max(tau) and stable:
-                    converged, reason = True, f"chain longer than {tau_factor:g} tau and tau stable to 5%"
-                    bar.retotal(sampler.iteration)
-                    break
-            previous_tau = tau
+        try:
+            while sampler.iteration < max_steps:
+                # chunks end at multiples of ``chunk``, so a resumed run judges convergence where an
+                # uninterrupted one does (the backend also restores emcee's random state: same draws)
+                steps = min(chunk - sampler.iteration % chunk, max_steps - sampler.iteration)
+                sampler.run_mcmc(state, steps, progress=False)
+                state = None
+                tau = sampler.get_autocorr_time(tol=0)
+                _report(bar, sampler, tau, tau_factor, max_steps, steps, chunk)
+                if previous_tau is not None and np.all(np.isfinite(tau)):
+                    stable = np.all(np.abs(tau - previous_tau) < 0.05 * tau)
+                    if sampler.iteration > tau_factor * np.max(tau) and stable:
+                        converged, reason = True, f"chain longer than {tau_factor:g} tau and tau stable to 5%"
+                        bar.retotal(sampler.iteration)
+                        break
+                previous_tau = tau
+        finally:
+            if backend is not None:     # an interrupted run keeps every step it took
+                backend.flush()
     if not converged:
         reason = unconverged_reason(sampler.get_autocorr_time(tol=0), previous_tau, sampler.iteration, tau_factor)
     tau = sampler.get_autocorr_time(tol=0)
