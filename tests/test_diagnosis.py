@@ -46,11 +46,12 @@ def test_a_free_decay_is_diagnosed_without_an_excitation_time():
 @pytest.mark.slow
 def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
     """A decaying 80 Hz line between modes 3 and 4 (a mode the beam model does not have), 15 % of
-    the signal's RMS, added to the reference's q1 recording."""
+    the signal's RMS, added to the reference's q1 recording. The screen's leading candidate, the
+    one most likely to be added wrongly, is fitted (``candidates=1``)."""
     rec = reference()[0]
     t, y = rec.time, rec.signals.copy()
     y[:, 0] += 0.15 * np.sqrt(np.mean(y**2)) * np.exp(-3.0 * t) * np.sin(2 * np.pi * 80.0 * t) * (t > 0.02)
-    d = diagnose(rec.with_signals(y), "q1", REFERENCE_CONFIG)
+    d = diagnose(rec.with_signals(y), "q1", replace(REFERENCE_CONFIG, candidates=1))
     assert d.added == [] and d.unexplained and d.trials            # the top candidate was tried, not added
     assert not any(t.decisive and t.improved for t in d.trials)
     (region,) = d.remaining()
@@ -550,15 +551,15 @@ def test_a_diagnosis_from_a_comparison_starts_from_its_baseline(monkeypatch, tmp
     diagnosis's own baseline makes (``baseline_fits``: same models, options and seed), and a model
     read back equals the one compare() returned (tests/test_saved_comparison.py), so a diagnosis
     fitting its baseline would decide alike. The models are cut to q1 and q2 (``models``, as
-    ``--models q1,q2``) and the rounds to one, to cut the cost; q2 wins the comparison here, so the
-    damping re-check starts q1 from the read-back fit."""
+    ``--models q1,q2``), the rounds and the candidates to one, to cut the cost; q2 wins the
+    comparison here, so the damping re-check starts q1 from the read-back fit."""
     from importlib import import_module
 
     from bayesbeam.report.compare_outputs import write_comparison
     from tests.diagnosis_cases import CONFIG
 
     dg = import_module("bayesbeam.diagnosis")    # the module: the package's name "diagnose" may be the function
-    config = replace(CONFIG, models=("q1", "q2"), rounds=1)
+    config = replace(CONFIG, models=("q1", "q2"), rounds=1, candidates=1)
     rec = recording("root_compliance")
     results, summary = dg.compare(rec, ["q1", "q2"], config.compare, None)
     write_comparison(results, summary, tmp_path)
