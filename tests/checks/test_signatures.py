@@ -33,9 +33,10 @@ import numpy as np
 import pytest
 
 from bayesbeam.checks.discrepancy import locate
-from bayesbeam.checks.signatures import rank_effects
+from bayesbeam.checks.signatures import _Evaluator, rank_effects
 from bayesbeam.inference.fit import prepare
 from bayesbeam.inference.sampler import find_optimum
+from bayesbeam.model import BeamModel
 from tests.checks.test_discrepancy import REPLICATES, fit_and_locate, fitted, recording
 from tests.diagnosis_cases import CONCEALED, FIT, N_INTERVALS, reference
 from tests.inference import cases
@@ -103,6 +104,17 @@ def test_concealed_effect_ranks_first(case):
     beam = [c for c in result.candidates[1:] if c.effect not in CHAIN + MIMICS]
     assert best.delta_chi2 > 3 * beam[0].delta_chi2
     assert best.delta_chi2 > 1.5 * result.candidates[1].delta_chi2
+
+
+def test_one_system_gives_the_screen_its_response_and_poles():
+    """A linear evaluator simulates and takes the poles from one Galerkin system: exactly the
+    model's own simulate and poles, an effect's parameter included (a root spring of 4000 N m/rad)."""
+    rec, _ = cases.clean_response("q1")
+    model = BeamModel.from_recording(rec, "q1", N_INTERVALS, degree=5, effects="root_compliance")
+    params = {**cases.TRUTH["q1"], "k_theta": 4000.0}
+    y, poles = _Evaluator(model, None).simulate_with_poles(params)
+    np.testing.assert_array_equal(y, model.simulate(params))
+    np.testing.assert_array_equal(poles, model.poles(params))
 
 
 @pytest.mark.parametrize("case", CASES)
