@@ -22,7 +22,7 @@ README = HERE / "README.md"
 #: the benchmarks with a block in README.md, in its order
 NAMES = ("forward", "effects", "sampling", "batch", "compare", "compare_full", "diagnose",
          "diagnose_paper_quadratic_drag", "diagnose_paper_dry_friction", "from_comparison", "from_comparison_root_spring",
-         "catalogue", "basis", "ppc", "nonlinear_long")
+         "catalogue", "basis", "ppc", "nonlinear_long", "chain_file")
 #: results kept under another name than their script's (name -> script): the same benchmark at another setting
 SCRIPTS = {"compare_full": "compare", "diagnose_paper_quadratic_drag": "diagnose",
            "diagnose_paper_dry_friction": "diagnose", "from_comparison_root_spring": "from_comparison"}

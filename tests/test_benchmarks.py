@@ -48,8 +48,8 @@ COMPARISON = ROOT / "studies" / "model_comparison" / "paper_q3_hammer" / "compar
 DIAGNOSIS = ROOT / "studies" / "concealed_effects" / "out" / "paper_root_compliance" / "diagnosis.json"
 #: the scripts a test below runs beyond their import; tables.py's rendering is run by
 #: tests/studies/test_generated_tables.py and its ``record`` by every script here
-RUN_HERE = ("_common", "basis", "batch", "catalogue", "compare", "diagnose", "effects", "forward", "from_comparison",
-            "nonlinear_long", "ppc", "profiles", "sampling", "tables")
+RUN_HERE = ("_common", "basis", "batch", "catalogue", "chain_file", "compare", "diagnose", "effects", "forward",
+            "from_comparison", "nonlinear_long", "ppc", "profiles", "sampling", "tables")
 
 
 @pytest.fixture
@@ -301,6 +301,16 @@ def test_ppc_runs_its_tables(load_script, monkeypatch):
     monkeypatch.setattr(ppc, "posterior_predictive_check", _forcing(ppc.posterior_predictive_check, n_replicates=4))
     monkeypatch.setattr(ppc, "STUDIES", dict(list(ppc.STUDIES.items())[:1]))
     assert ppc.main([]) == 0
+
+
+def test_chain_file_runs_and_compares_the_files(load_script, monkeypatch):
+    """chain_file.py at 20 steps: ``prepare``, ``find_optimum(start=)``, ``run_emcee`` with and
+    without a file, emcee's backend swapped in for the baseline and restored, the chains compared."""
+    chain_file = load_script("chain_file")
+    monkeypatch.setattr(chain_file, "STEPS", 20)
+    assert chain_file.main([]) == 0
+    assert sampler.BufferedHDFBackend is chain_file.BufferedHDFBackend
+    assert chain_file.tables.MEASURED["chains_identical"]
 
 
 def test_nonlinear_long_runs_with_compare_and_diagnose(load_script, monkeypatch):
