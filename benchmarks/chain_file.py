@@ -34,7 +34,7 @@ import numpy as np
 import tables  # benchmarks/tables.py: the script's folder is first on sys.path
 
 from bayesbeam.inference import sampler
-from bayesbeam.inference.backend import FLUSH_STEPS, BufferedHDFBackend
+from bayesbeam.inference.backend import FLUSH_STEPS
 from bayesbeam.inference.fit import FitConfig, prepare
 from bayesbeam.inference.sampler import find_optimum, run_emcee
 from bayesbeam.io import load_recording
