@@ -1,6 +1,6 @@
 """Benchmark: emcee's chain file written step by step, or a block of steps at a time.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/chain_file.py      # about a minute on one core
+    OPENBLAS_NUM_THREADS=1 python benchmarks/chain_file.py      # two to three minutes on one core
 
 ``bayesbeam fit`` keeps its chain in an HDF5 file (``chains.h5``, which ``--resume`` continues).
 emcee's ``HDFBackend``, the baseline, writes each step as it is taken and opens the file three
@@ -10,8 +10,8 @@ whose likelihood costs about a millisecond: ``data/examples/paper_q3_hammer`` up
 damping, below 60 Hz, N = 8, 8 walkers, from the optimum polished from the example's truth.
 ``run_emcee`` takes :data:`STEPS` steps (convergence never declared, so every path runs them all)
 with no file (emcee's memory backend: what sampling itself costs), with emcee's file and with the
-buffered one, the same seed and start; CPU seconds (one thread), and whether the two files' chains
-and log probabilities are identical.
+buffered one, the same seed and start; CPU seconds (one thread, the best of :data:`REPEATS` runs
+of each, interleaved), and whether the two files' chains and log probabilities are identical.
 """
 from __future__ import annotations
 
@@ -44,6 +44,8 @@ EXAMPLE = ROOT / "data" / "examples" / "paper_q3_hammer"
 #: steps per run
 STEPS = 1000
 WALKERS = 8
+#: runs of each path, the fastest kept
+REPEATS = 3
 
 
 class StepByStep(emcee.backends.HDFBackend):
@@ -53,10 +55,10 @@ class StepByStep(emcee.backends.HDFBackend):
         pass
 
 
-def timed_run(post, optimum, path: Path | None) -> float:
-    """CPU seconds of run_emcee for STEPS steps, writing to ``path`` (None: no file)."""
+def timed_run(post, optimum, path: Path | None, steps: int | None = None) -> float:
+    """CPU seconds of run_emcee for ``steps`` (default STEPS) steps, writing to ``path`` (None: no file)."""
     start = time.process_time()
-    run_emcee(post, optimum, np.random.default_rng(5), n_walkers=WALKERS, max_steps=STEPS,
+    run_emcee(post, optimum, np.random.default_rng(5), n_walkers=WALKERS, max_steps=steps or STEPS,
               tau_factor=1e9, backend_path=path)
     return time.process_time() - start
 
@@ -80,18 +82,22 @@ def main(argv=None) -> int:
     optimum = find_optimum(post, np.random.default_rng(1),
                            start={"EI": truth["beam_true"]["EI"], "gamma": truth["damping"]["gamma"]})
     folder = Path(tempfile.mkdtemp())
-    seconds = {"no file": timed_run(post, optimum, None)}
-    buffered = sampler.BufferedHDFBackend
-    sampler.BufferedHDFBackend = StepByStep       # the baseline: emcee's backend in the same call
-    try:
-        seconds["emcee HDFBackend"] = timed_run(post, optimum, folder / "step_by_step.h5")
-    finally:
-        sampler.BufferedHDFBackend = buffered
-    seconds["buffered"] = timed_run(post, optimum, folder / "buffered.h5")
+    timed_run(post, optimum, None, STEPS // 10)     # first calls' one-off costs, timed by no path
+    runs = {"no file": [], "emcee HDFBackend": [], "buffered": []}
+    for _ in range(REPEATS):                        # interleaved: a slow spell of the machine hits all three
+        runs["no file"].append(timed_run(post, optimum, None))
+        buffered = sampler.BufferedHDFBackend
+        sampler.BufferedHDFBackend = StepByStep       # the baseline: emcee's backend in the same call
+        try:
+            runs["emcee HDFBackend"].append(timed_run(post, optimum, folder / "step_by_step.h5"))
+        finally:
+            sampler.BufferedHDFBackend = buffered
+        runs["buffered"].append(timed_run(post, optimum, folder / "buffered.h5"))
+    seconds = {path: min(times) for path, times in runs.items()}
     (c0, lp0), (c1, lp1) = chain(folder / "step_by_step.h5"), chain(folder / "buffered.h5")
     identical = bool(np.array_equal(c0, c1) and np.array_equal(lp0, lp1) and len(c0) == STEPS)
-    print(f"\n{STEPS} steps of {WALKERS} walkers, air at N = 8, 0.5 s below 60 Hz; CPU s, one thread; "
-          f"buffered: {FLUSH_STEPS} steps per write")
+    print(f"\n{STEPS} steps of {WALKERS} walkers, air at N = 8, 0.5 s below 60 Hz; CPU s, one thread, best of "
+          f"{REPEATS}; buffered: {FLUSH_STEPS} steps per write")
     print(f"{'no file':>10}{'emcee HDFBackend':>18}{'buffered':>10}{'ratio':>8}   chains identical")
     ratio = seconds["buffered"] / seconds["emcee HDFBackend"]
     print(f"{seconds['no file']:10.2f}{seconds['emcee HDFBackend']:18.2f}{seconds['buffered']:10.2f}{ratio:8.3f}"
