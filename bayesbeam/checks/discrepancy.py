@@ -134,7 +134,7 @@ from functools import lru_cache
 import numpy as np
 from scipy import ndimage, signal, stats
 
-from bayesbeam.checks.envelope import SETTLE, band_edges, mode_estimates
+from bayesbeam.checks.envelope import SETTLE, band_edges, band_pass, mode_estimates
 from bayesbeam.checks.ppc import decay_start, era_modes, modes_in_band
 from bayesbeam.inference.likelihood import _marginal
 
@@ -438,9 +438,8 @@ def _analytic(x: np.ndarray, bands, channel, fs: float) -> np.ndarray:
 @lru_cache(maxsize=64)
 def _analytic_gain(lo: float, hi: float, fs: float, n: int) -> np.ndarray:
     """2 |H(f)|^2 at positive frequencies of a 2n-point FFT, |H(0)|^2 at 0, and 0 at negative ones."""
-    sos = signal.butter(4, [lo, hi], btype="bandpass", fs=fs, output="sos")
     f = np.fft.fftfreq(2 * n, 1 / fs)
-    _, h = signal.sosfreqz(sos, worN=np.abs(f), fs=fs)
+    _, h = signal.sosfreqz(band_pass(lo, hi, fs), worN=np.abs(f), fs=fs)
     return np.where(f > 0, 2.0, np.where(f == 0, 1.0, 0.0)) * np.abs(h) ** 2
 
 

@@ -68,10 +68,11 @@ def mode_estimates(y: np.ndarray, fs: float, frequencies, start: float = 0.0,
 
 
 @lru_cache(maxsize=256)
-def _band_pass(lo: float, hi: float, fs: float) -> np.ndarray:
-    """The 4th-order Butterworth band-pass over (lo, hi) Hz as second-order sections: the same
-    bands are filtered in every replicate of a check and every evaluation of a screen, and the
-    design costs more than the filtering."""
+def band_pass(lo: float, hi: float, fs: float) -> np.ndarray:
+    """The estimator's 4th-order Butterworth band-pass over (lo, hi) Hz as second-order sections
+    (also the mismatch map's phase filter, :mod:`bayesbeam.checks.discrepancy`): the same bands
+    are filtered in every replicate of a check and every evaluation of a screen, and the design
+    costs more than the filtering."""
     return signal.butter(4, [lo, hi], btype="bandpass", fs=fs, output="sos")
 
 
@@ -79,7 +80,7 @@ def _one_mode(y, time, fs, lo, hi, start, noise_sd):
     nan = (np.nan,) * 4
     if hi >= 0.45 * fs or lo <= 0:
         return nan
-    analytic = signal.hilbert(signal.sosfiltfilt(_band_pass(lo, hi, fs), y))
+    analytic = signal.hilbert(signal.sosfiltfilt(band_pass(lo, hi, fs), y))
     settle = SETTLE / (hi - lo)
     keep = (time >= start + settle) & (time <= time[-1] - settle)
     if keep.sum() < 16:
