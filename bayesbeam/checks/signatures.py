@@ -604,7 +604,9 @@ class _Signature:
         def residual(beta):
             # least squares evaluates its start again, and may revisit a point: each is simulated once
             key = beta.tobytes()
-            s = seen[key] = seen[key] if key in seen else self(value, beta)
+            if key not in seen:
+                seen[key] = self(value, beta)
+            s = seen[key]
             # least squares needs finite residuals: a failed evaluation fits worse than any other
             return self.space.d - self.space.weighted(s) if s is not None else np.full(self.space.d.size, FAILED)
 
