@@ -55,6 +55,10 @@ SLOWEST_FIRST = (
 
 
 def pytest_collection_modifyitems(items):
-    """The modules of :data:`SLOWEST_FIRST` first, in its order; the rest as collected."""
+    """The modules of :data:`SLOWEST_FIRST` first, in its order; the rest as collected. A test of
+    the long tier must be marked slow too, so that the fast subset (-m "not slow") leaves it out."""
+    unmarked = [item.nodeid for item in items if item.get_closest_marker("long") and not item.get_closest_marker("slow")]
+    if unmarked:
+        raise pytest.UsageError(f"marked long but not slow: {', '.join(unmarked)}. Fix: mark them slow as well")
     rank = {path: i for i, path in enumerate(SLOWEST_FIRST)}
     items.sort(key=lambda item: rank.get(item.nodeid.split("::")[0], len(rank)))

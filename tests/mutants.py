@@ -157,8 +157,10 @@ def run_pytest(copy: Path, paths: tuple[str, ...]) -> tuple[int, str, str]:
     probe = copy / "imported.txt"
     env = {**os.environ, "PYTHONPATH": str(copy), "OPENBLAS_NUM_THREADS": "1", "PYTHONDONTWRITEBYTECODE": "1",
            "BAYESBEAM_MUTANT_ROOT": str(copy), "BAYESBEAM_MUTANT_PROBE": str(probe)}
+    # named guard paths run whole, their long-tier tests included (-m "" lifts pyproject's -m "not long")
+    every_test = ("-m", "") if paths else ()
     command = [sys.executable, "-m", "pytest", "-q", "-x", "-p", "no:cacheprovider", "-p", PROBE_MODULE,
-               "--rootdir", str(copy), *paths]
+               *every_test, "--rootdir", str(copy), *paths]
     try:
         done = subprocess.run(command, cwd=copy, env=env, capture_output=True, text=True, check=False,
                               timeout=RUN_TIMEOUT)

@@ -267,6 +267,7 @@ def _report(case: str, reps: list) -> tuple[str, dict, dict]:
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("case", CASES)
 def test_discretisation_passes_the_fits_refinement_check(replications, case):
     from bayesbeam.inference.fit import SHIFT_TOLERANCE
@@ -291,6 +292,7 @@ def _certification(case: str, reps: list) -> tuple[str, list]:
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("case", CASES)
 def test_importance_sampling_is_reliable(replications, case):
     """Every draw's weights have Pareto k < 0.7 (after the planned or the further stages)."""
@@ -301,6 +303,7 @@ def test_importance_sampling_is_reliable(replications, case):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("case", CASES)
 def test_90_percent_intervals_cover_the_truth_at_the_nominal_rate(replications, case):
     """Counts only certified draws: one whose weights are not certified fails the test."""

@@ -22,7 +22,7 @@ from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import FitConfig
 from tests.acceptance import cases
 
-pytestmark = pytest.mark.slow  # minutes of fits: left out of the fast subset (docs/testing.md)
+pytestmark = [pytest.mark.slow, pytest.mark.long]  # minutes of fits: the long tier (docs/testing.md)
 
 MODELS = ("q1", "q2", "q3", "air", "strain_rate")
 #: N chosen automatically (quintic ladder 8, 12, ...); 2 SMC repeats give the evidence's sd

@@ -73,7 +73,7 @@ from tests.acceptance import cases as ac
 from tests.inference.cases import run_in_processes
 from tests.reference import Hammer
 
-pytestmark = pytest.mark.slow  # minutes of fits: left out of the fast subset (docs/testing.md)
+pytestmark = [pytest.mark.slow, pytest.mark.long]  # minutes of fits: the long tier (docs/testing.md)
 
 #: case -> (model, beam, seed, walkers, steps), the longest first
 RUNS = {"paper q3": ("q3", "paper", 13, 20, 600), "alu q1": ("q1", "alu", 14, 16, 600),

@@ -116,7 +116,7 @@ from tests.acceptance.cases import NOISE, NOMINAL_OVER_TRUE
 from tests.inference import cases
 from tests.reference import Hammer, record
 
-pytestmark = pytest.mark.slow  # minutes of fits: left out of the fast subset (docs/testing.md)
+pytestmark = [pytest.mark.slow, pytest.mark.long]  # minutes of fits: the long tier (docs/testing.md)
 
 #: quintic splines, N = 8: in-band response within 1e-4 (paper beam) and 1.5e-3 (aluminium strip)
 #: of the RMS of the converged model's (degree 5, N = 48), well below the 2 % noise; cubic N = 8

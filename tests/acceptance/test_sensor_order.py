@@ -157,6 +157,7 @@ def test_the_order_of_the_sensors_does_not_change_the_posterior(lab):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_the_concealed_mass_is_found_at_the_mid_span_sensor(diagnosed):
     """Added: sensor_mass, at the mid-span sensor; the damping re-check ends at q3 with the mass,
     and there the concealed 5 g lie inside m_s_mid's 99 % interval. The interval is the final

@@ -212,6 +212,7 @@ def dynesty_log_z(post, seed):
 
 
 @pytest.mark.slow
+@pytest.mark.long
 @pytest.mark.parametrize("model", ["air", "q1"])
 def test_smc_agrees_with_dynesty_on_beam_models(model):
     rec, sd = cases.simulated("q1", seed=3, fs=256.0)
