@@ -211,7 +211,7 @@ def parse(argv=None) -> argparse.Namespace:
     parser.add_argument("names", nargs="*", metavar="NAME", help="mutants to run (default: all)")
     parser.add_argument("--list", action="store_true", help="list the mutants and whether each applies")
     parser.add_argument("--tests", nargs="+", metavar="PATH", help="run these test paths instead of the guards")
-    parser.add_argument("--all-tests", action="store_true", help="run the whole default suite instead of the guards")
+    parser.add_argument("--all-tests", action="store_true", help="run the whole default run (no long tier) instead of the guards")
     parser.add_argument("--per-path", action="store_true", help="one pytest run, and one verdict, per guard path")
     args = parser.parse_args(argv)
     unknown = sorted(set(args.names) - set(BY_NAME))
