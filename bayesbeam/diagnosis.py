@@ -890,7 +890,8 @@ def given_stand_ins(d: Diagnosis) -> dict[str, dict]:
     by the set-up exactly as an added one is."""
     rec = d.baseline.problem.model.recording
     final = {e.name for e in d.final.problem.model.effects}
-    verdicts = {e.name: stand_in(e.name, _own_parameters(d.final, e.name), rec)
+    modes = modes_without_body(d.final)
+    verdicts = {e.name: stand_in(e.name, _own_parameters(d.final, e.name), rec, modes)
                 for e in d.baseline.problem.model.effects if e.name in final}
     return {name: verdict for name, verdict in verdicts.items() if verdict}
 
@@ -938,15 +939,21 @@ STAND_IN_WHY = {
     "attachment": (f"a body whose own mode lies above {RESONANCE_LIMIT:g} times the Nyquist frequency rides with the "
                    "beam as a point mass at x_a: it stands in for a mass the set-up misstates (a sensor's, the tip "
                    "body's) or another effect that lowers the modes in that pattern"),
+    "tuned_attachment": ("a body tuned to a beam mode splits that mode into a close pair whose beating is what any "
+                         "second mode at that frequency gives (the beam's other bending plane, torsion, the clamp or "
+                         "the bench): the response cannot tell the body from them"),
     "mains_lines": ("the record shows no line at a harmonic of f_mains that keeps its amplitude over the record "
                     "(bayesbeam check's mains-line test), so its sinusoids absorb a mode or a transient, not pickup"),
 }
 
 
-def stand_in(effect: str, parameters: dict, rec) -> dict | None:
+def stand_in(effect: str, parameters: dict, rec, modes=None) -> dict | None:
     """Whether a fitted ``effect`` is a stand-in: its posterior median lies outside what the set-up
     of ``rec`` allows. ``parameters``: the effect's :func:`effect_parameters` (q50 and unit per
-    parameter). Returns None, or the parameter, its median, the allowed range and why (SI units).
+    parameter); ``modes``: for ``attachment``, the fitted beam's modes without the body
+    (:func:`modes_without_body`; None: not judged against them). Returns None, or the parameter,
+    its median, the allowed range (or, for a body tuned to a mode, the band it lies within and
+    that mode's number) and why (SI units).
 
     The rule, per effect (others have no set-up bound and are never stand-ins):
 
@@ -975,6 +982,13 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
       ten times above everything the recording resolves, the link is rigid and the body a point
       mass at x_a, the sensor_mass's pattern at a place no sensor states: a mass the set-up
       misstates, or whatever lowers the modes by phi_m(x_a)^2, not an attached resonator.
+      Nor is a body whose median f_a lies within a beam mode's half-power band,
+      f_m (1 - zeta_m) to f_m (1 + zeta_m) (``modes``: the fitted beam's frequencies and damping
+      ratios without the body, at the posterior medians). Tuned that close, the body splits mode m
+      into a pair closer than the mode's own bandwidth, which the response shows as one peak
+      that beats: what any second mode at that frequency gives (the beam's other bending plane,
+      torsion, a mode of the clamp or the bench), so the response cannot tell an attached body
+      from them, and the fit finds the pair, not a body.
     * ``base_support``: median f_b above :data:`RESONANCE_LIMIT` = 10 times the Nyquist
       frequency fs/2, or median m_b above :data:`BASE_MASS_LIMIT` = 1e4 times the mass beyond the
       clamp, rho A l + m_T. A base resonance ten times above all the recording resolves shows in the
@@ -989,6 +1003,10 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
     """
     if effect == "mains_lines":
         return _pickup_stand_in(parameters, rec)
+    if effect == "attachment" and modes is not None and (tuned := _tuned_mode(parameters["f_a"]["q50"], modes)):
+        mode, band = tuned
+        return {"parameter": "f_a", "median": parameters["f_a"]["q50"], "allowed": None, "within": band,
+                "mode": mode, "unit": parameters["f_a"]["unit"], "why": STAND_IN_WHY["tuned_attachment"]}
     for name, (low, high) in allowed_by_setup(effect, rec).items():
         if name not in parameters or _not_needed(effect, name, parameters[name], rec):
             continue
@@ -1001,6 +1019,29 @@ def stand_in(effect: str, parameters: dict, rec) -> dict | None:
             return {"parameter": name, "median": median, "allowed": [low, high], "unit": parameters[name]["unit"],
                     "why": why}
     return None
+
+
+def _tuned_mode(f_a: float, modes) -> tuple[int, list[float]] | None:
+    """(mode number from 1, its half-power band [f_m (1 - zeta_m), f_m (1 + zeta_m)] in Hz) of the
+    first of ``modes`` ((frequency Hz, damping ratio) each, lowest first) whose band holds ``f_a``, or None."""
+    for number, (frequency, zeta) in enumerate(modes, start=1):
+        band = [frequency * (1 - zeta), frequency * (1 + zeta)]
+        if band[0] <= f_a <= band[1]:
+            return number, band
+    return None
+
+
+def modes_without_body(result) -> list[tuple[float, float]] | None:
+    """(natural frequency Hz, damping ratio) of each mode of ``result``'s model with its attached
+    body taken off (m_a = 0, which removes the body's degree of freedom), every other parameter at
+    its posterior median, lowest first; None when the model has no attached body."""
+    model = result.problem.model
+    if not any(e.name == "attachment" for e in model.effects):
+        return None
+    post = result.problem.posterior
+    values = post.split(np.median(_draws(result), axis=0))[0]
+    poles = model.poles({**{n: v for n, v in values.items() if n in post.model_names}, "m_a": 0.0})
+    return [(float(abs(p) / (2 * np.pi)), float(-p.real / abs(p))) for p in poles]
 
 
 def _pickup_stand_in(parameters: dict, rec) -> dict | None:
@@ -1016,6 +1057,12 @@ def _pickup_stand_in(parameters: dict, rec) -> dict | None:
             "why": STAND_IN_WHY["mains_lines"]}
 
 
+def trial_stand_in(t: Trial, parameters: dict) -> dict | None:
+    """:func:`stand_in`'s verdict on the effect of trial ``t`` (``parameters``: its :func:`effect_parameters`)."""
+    modes = modes_without_body(t.result) if t.effect == "attachment" else None
+    return stand_in(t.effect, parameters, t.result.problem.model.recording, modes)
+
+
 def _trial_entry(t: Trial, signature) -> dict:
     parameters = effect_parameters(t)
     rec = t.result.problem.model.recording
@@ -1023,7 +1070,7 @@ def _trial_entry(t: Trial, signature) -> dict:
     return {"effect": t.effect, "sensor": sensor, "label": label(t.effect, parameters, rec),
             "round": t.round, "model": t.result.name,
             "delta_log_evidence": t.log_bayes_factor, "delta_log_evidence_sd": t.log_bayes_factor_sd,
-            "parameters": parameters, "stand_in": stand_in(t.effect, parameters, t.result.problem.model.recording),
+            "parameters": parameters, "stand_in": trial_stand_in(t, parameters),
             "rms_standardized_residual": t.mismatch.rms_standardized_residual, "flags": flags(t.mismatch),
             "noise": t.mismatch.noise,
             "decisive": t.decisive, "map_improved": t.improved, "added": t.added and not t.dropped,
@@ -1050,7 +1097,7 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
         text += [_stand_in_sentence(effect, verdict) for effect, verdict in given_stand_ins(d).items()]
         return " ".join(text)
     rec = d.baseline.problem.model.recording
-    verdicts = [stand_in(t.effect, summary, rec) for t, summary in zip(d.trials, parameters)]
+    verdicts = [trial_stand_in(t, summary) for t, summary in zip(d.trials, parameters)]
     for t, summary in zip(d.trials, parameters):
         params = _estimates(summary) or _fixed_words(t)
         verdict = ("added, then dropped after the damping re-check" if t.dropped else
@@ -1095,8 +1142,13 @@ def _stand_in_sentence(effect: str, verdict: dict) -> str:
 
 
 def stand_in_clause(verdict: dict) -> str:
-    """What rules a stand-in's value out, in words: outside the range the set-up allows, or (no
-    range: mains pickup) no persistent line at its harmonics."""
+    """What rules a stand-in's value out, in words: inside a beam mode's half-power band (a tuned
+    body), outside the range the set-up allows, or (no range: mains pickup) no persistent line at
+    its harmonics."""
+    if "within" in verdict:
+        low, high = verdict["within"]
+        return (f"(posterior median) lies within beam mode {verdict['mode']}'s half-power band, "
+                f"{low:.6g} to {high:.6g} {verdict['unit']}")
     if verdict["allowed"] is None:
         return "(fixed) has no persistent line at any of its harmonics in the record"
     low, high = verdict["allowed"]

@@ -296,3 +296,60 @@ def test_a_diagnosis_adds_pickup_the_map_calls_not_beam_physics_and_it_is_no_sta
     entry = d.to_dict()["candidates"][0]
     assert entry["parameters"] == {} and entry["stand_in"] is None and entry["signature"]["supported"]
     assert "f_mains = 50 Hz (fixed): added" in d.to_dict()["summary"]
+
+
+# ---------------------------------------------------------------------------- a body tuned to a beam mode
+#: the fitted beam's modes without the body: (frequency Hz, damping ratio), lowest first
+MODES = [(3.6, 0.004), (22.6, 0.002), (63.3, 0.003)]
+
+
+def _body(f_a: float) -> dict:
+    return {**summary("f_a", f_a, "Hz"), **summary("m_a", 0.008, "kg"), **summary("zeta_a", 0.002, "-"),
+            **summary("x_a", 0.06, "m")}
+
+
+@pytest.mark.parametrize(("f_a", "expected"), [(22.6 * (1 + 0.99 * 0.002), 2), (22.6 * (1 - 0.99 * 0.002), 2),
+                                               (22.6 * (1 + 1.01 * 0.002), None), (3.6 * (1 - 0.99 * 0.004), 1),
+                                               (3.6 * (1 + 1.01 * 0.004), None), (45.0, None)])
+def test_a_body_tuned_within_a_modes_half_power_band_is_a_stand_in(f_a, expected):
+    """1 % inside a mode's half-power half-band zeta_m f_m either side is a tuned body, which the
+    response cannot tell from a second mode there; 1 % beyond it, or between modes, a body."""
+    verdict = stand_in("attachment", _body(f_a), recording(), MODES)
+    assert (verdict and verdict["mode"]) == expected
+    if expected:
+        frequency, zeta = MODES[expected - 1]
+        assert verdict["parameter"] == "f_a" and verdict["allowed"] is None
+        assert verdict["within"] == pytest.approx([frequency * (1 - zeta), frequency * (1 + zeta)], rel=1e-12)
+        assert f"within beam mode {expected}'s half-power band" in paragraph_words(verdict)
+
+
+def paragraph_words(verdict: dict) -> str:
+    from bayesbeam.diagnosis import _stand_in_sentence
+
+    return _stand_in_sentence("attachment", verdict)
+
+
+def test_without_the_modes_a_tuned_body_is_judged_by_its_own_frequency_alone():
+    """The modes are what the tuned rule needs: without them only the far-above rule applies."""
+    assert stand_in("attachment", _body(22.6), recording()) is None
+    assert stand_in("attachment", _body(22.6), recording(), MODES)["mode"] == 2
+
+
+def test_the_modes_without_the_body_are_the_bare_beams():
+    """m_a = 0 takes the body's degree of freedom away: the modes of q1+attachment at m_a = 0 are
+    q1's at the same EI, gamma and cdI (to rounding), and differ from the body's model's (by
+    percents at the body's mode, 37.8 Hz at the default medians, here between modes 2 and 3)."""
+    from bayesbeam.diagnosis import known_or_median, modes_without_body
+    from bayesbeam.inference.fit import FitConfig, prepare
+
+    rec = cases.simulated("q1", seed=3, fs=256.0)[0]
+    problem = prepare(rec, "q1", FitConfig(n_intervals=6, effects=("attachment",)), 6)
+    values = known_or_median(problem.model, {})
+    theta = problem.posterior.coordinates({**values, **{n: 1.0 for n in problem.posterior.names if n not in values}})
+    result = SimpleNamespace(problem=problem, draws=np.tile(theta, (2, 3, 1)))
+    modes = np.array(modes_without_body(result))
+    bare = prepare(rec, "q1", FitConfig(n_intervals=6), 6).model.poles({n: values[n] for n in ("EI", "gamma", "cdI")})
+    assert modes[:, 0] == pytest.approx(np.abs(bare) / (2 * np.pi), rel=1e-9)
+    assert modes[:, 1] == pytest.approx(-bare.real / np.abs(bare), rel=1e-6)
+    with_body = problem.model.poles(values)
+    assert abs(np.abs(with_body[2]) / np.abs(bare[2]) - 1) > 0.01

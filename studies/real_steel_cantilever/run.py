@@ -103,15 +103,26 @@ def diagnosis_table(d: dict) -> str:
              str(d["baseline"]["flags"]), "", ""]]
     for c in d["candidates"]:
         estimate = "; ".join(f"{name} {median_and_interval(q)} {q['unit']}" for name, q in c["parameters"].items())
-        stand_in = c["stand_in"]
         rows.append([str(c["round"]), c["model"], f"{c['delta_log_evidence']:.1f} +- {c['delta_log_evidence_sd']:.2g}",
                      estimate, f"{c['rms_standardized_residual']:.2f}", str(c["flags"]),
                      "added" if c["added"] else ("not decisive" if not c["decisive"] else "map not improved"),
-                     "no" if stand_in is None else
-                     f"yes: outside {stand_in['allowed'][0]:.3g} to {stand_in['allowed'][1]:.3g} {stand_in['unit']}"])
+                     stand_in_cell(c["stand_in"])])
     head = ["round", "model", "ln B vs the model it extends", "effect's posterior median [90 %]", "RMS", "flags",
             "decision", "stand-in"]
     return markdown_table(head, rows)
+
+
+def stand_in_cell(verdict: dict | None) -> str:
+    """The diagnosis table's stand-in column: no, or what rules the median out (``diagnose.stand_in``)."""
+    if verdict is None:
+        return "no"
+    if "within" in verdict:
+        low, high = verdict["within"]
+        return f"yes: within mode {verdict['mode']}'s half-power band {low:.5g} to {high:.5g} {verdict['unit']}"
+    if verdict["allowed"] is None:
+        return "yes: no persistent line at its harmonics"
+    low, high = verdict["allowed"]
+    return f"yes: outside {low:.3g} to {high:.3g} {verdict['unit']}"
 
 
 def setup_table(summary: dict) -> str:
