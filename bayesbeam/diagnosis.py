@@ -890,9 +890,9 @@ def given_stand_ins(d: Diagnosis) -> dict[str, dict]:
     by the set-up exactly as an added one is."""
     rec = d.baseline.problem.model.recording
     final = {e.name for e in d.final.problem.model.effects}
-    modes = modes_without_body(d.final)
-    verdicts = {e.name: stand_in(e.name, _own_parameters(d.final, e.name), rec, modes)
-                for e in d.baseline.problem.model.effects if e.name in final}
+    given = [e.name for e in d.baseline.problem.model.effects if e.name in final]
+    modes = modes_without_body(d.final) if "attachment" in given else None
+    verdicts = {name: stand_in(name, _own_parameters(d.final, name), rec, modes) for name in given}
     return {name: verdict for name, verdict in verdicts.items() if verdict}
 
 
@@ -1031,13 +1031,11 @@ def _tuned_mode(f_a: float, modes) -> tuple[int, list[float]] | None:
     return None
 
 
-def modes_without_body(result) -> list[tuple[float, float]] | None:
+def modes_without_body(result) -> list[tuple[float, float]]:
     """(natural frequency Hz, damping ratio) of each mode of ``result``'s model with its attached
     body taken off (m_a = 0, which removes the body's degree of freedom), every other parameter at
-    its posterior median, lowest first; None when the model has no attached body."""
+    its posterior median, lowest first. The model must have an ``attachment``."""
     model = result.problem.model
-    if not any(e.name == "attachment" for e in model.effects):
-        return None
     post = result.problem.posterior
     values = post.split(np.median(_draws(result), axis=0))[0]
     poles = model.poles({**{n: v for n, v in values.items() if n in post.model_names}, "m_a": 0.0})
