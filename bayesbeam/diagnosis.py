@@ -891,8 +891,8 @@ def given_stand_ins(d: Diagnosis) -> dict[str, dict]:
     rec = d.baseline.problem.model.recording
     final = {e.name for e in d.final.problem.model.effects}
     given = [e.name for e in d.baseline.problem.model.effects if e.name in final]
-    modes = modes_without_body(d.final) if "attachment" in given else None
-    verdicts = {name: stand_in(name, _own_parameters(d.final, name), rec, modes) for name in given}
+    bands = unresolved_bands(d.final) if "attachment" in given else None
+    verdicts = {name: stand_in(name, _own_parameters(d.final, name), rec, bands) for name in given}
     return {name: verdict for name, verdict in verdicts.items() if verdict}
 
 
@@ -939,19 +939,20 @@ STAND_IN_WHY = {
     "attachment": (f"a body whose own mode lies above {RESONANCE_LIMIT:g} times the Nyquist frequency rides with the "
                    "beam as a point mass at x_a: it stands in for a mass the set-up misstates (a sensor's, the tip "
                    "body's) or another effect that lowers the modes in that pattern"),
-    "tuned_attachment": ("a body tuned to a beam mode splits that mode into a close pair whose beating is what any "
-                         "second mode at that frequency gives (the beam's other bending plane, torsion, the clamp or "
-                         "the bench): the response cannot tell the body from them"),
+    "tuned_attachment": ("a body tuned that close to a beam mode adds a second mode the record cannot separate from "
+                         "it: the pair acts as one mode whose frequency and envelope the fit adjusts, which a beam "
+                         "mode misplaced by the model or any second mode there (the beam's other bending plane, "
+                         "torsion, the clamp or the bench) gives as well"),
     "mains_lines": ("the record shows no line at a harmonic of f_mains that keeps its amplitude over the record "
                     "(bayesbeam check's mains-line test), so its sinusoids absorb a mode or a transient, not pickup"),
 }
 
 
-def stand_in(effect: str, parameters: dict, rec, modes=None) -> dict | None:
+def stand_in(effect: str, parameters: dict, rec, bands=None) -> dict | None:
     """Whether a fitted ``effect`` is a stand-in: its posterior median lies outside what the set-up
     of ``rec`` allows. ``parameters``: the effect's :func:`effect_parameters` (q50 and unit per
-    parameter); ``modes``: for ``attachment``, the fitted beam's modes without the body
-    (:func:`modes_without_body`; None: not judged against them). Returns None, or the parameter,
+    parameter); ``bands``: for ``attachment``, the fitted beam's unresolved band about each mode
+    without the body (:func:`unresolved_bands`; None: not judged against them). Returns None, or the parameter,
     its median, the allowed range (or, for a body tuned to a mode, the band it lies within and
     that mode's number) and why (SI units).
 
@@ -982,11 +983,12 @@ def stand_in(effect: str, parameters: dict, rec, modes=None) -> dict | None:
       ten times above everything the recording resolves, the link is rigid and the body a point
       mass at x_a, the sensor_mass's pattern at a place no sensor states: a mass the set-up
       misstates, or whatever lowers the modes by phi_m(x_a)^2, not an attached resonator.
-      Nor is a body whose median f_a lies within a beam mode's half-power band,
-      f_m (1 - zeta_m) to f_m (1 + zeta_m) (``modes``: the fitted beam's frequencies and damping
-      ratios without the body, at the posterior medians). Tuned that close, the body splits mode m
-      into a pair closer than the mode's own bandwidth, which the response shows as one peak
-      that beats: what any second mode at that frequency gives (the beam's other bending plane,
+      Nor is a body whose median f_a lies within a beam mode's unresolved band f_m +- w_m, where
+      w_m = max(zeta_m f_m, 1/T) (``bands``: the fitted beam's modes without the body, at the
+      posterior medians, and T the fitted window's length). A second mode that close to mode m is
+      inside its half-power band or completes less than one beat against it over the window: the
+      record shows one mode whose frequency, decay and envelope the pair adjusts, which a beam mode
+      the model misplaces gives as well as any second mode there (the beam's other bending plane,
       torsion, a mode of the clamp or the bench), so the response cannot tell an attached body
       from them, and the fit finds the pair, not a body.
     * ``base_support``: median f_b above :data:`RESONANCE_LIMIT` = 10 times the Nyquist
@@ -1003,7 +1005,7 @@ def stand_in(effect: str, parameters: dict, rec, modes=None) -> dict | None:
     """
     if effect == "mains_lines":
         return _pickup_stand_in(parameters, rec)
-    if effect == "attachment" and modes is not None and (tuned := _tuned_mode(parameters["f_a"]["q50"], modes)):
+    if effect == "attachment" and bands is not None and (tuned := _tuned_mode(parameters["f_a"]["q50"], bands)):
         mode, band = tuned
         return {"parameter": "f_a", "median": parameters["f_a"]["q50"], "allowed": None, "within": band,
                 "mode": mode, "unit": parameters["f_a"]["unit"], "why": STAND_IN_WHY["tuned_attachment"]}
@@ -1021,14 +1023,23 @@ def stand_in(effect: str, parameters: dict, rec, modes=None) -> dict | None:
     return None
 
 
-def _tuned_mode(f_a: float, modes) -> tuple[int, list[float]] | None:
-    """(mode number from 1, its half-power band [f_m (1 - zeta_m), f_m (1 + zeta_m)] in Hz) of the
-    first of ``modes`` ((frequency Hz, damping ratio) each, lowest first) whose band holds ``f_a``, or None."""
-    for number, (frequency, zeta) in enumerate(modes, start=1):
-        band = [frequency * (1 - zeta), frequency * (1 + zeta)]
-        if band[0] <= f_a <= band[1]:
-            return number, band
+def _tuned_mode(f_a: float, bands) -> tuple[int, list[float]] | None:
+    """(mode number from 1, its band [low, high] in Hz) of the first of ``bands`` (one per mode,
+    lowest first) that holds ``f_a``, or None."""
+    for number, (low, high) in enumerate(bands, start=1):
+        if low <= f_a <= high:
+            return number, [low, high]
     return None
+
+
+def unresolved_bands(result) -> list[tuple[float, float]]:
+    """Per mode of ``result``'s beam without its attached body (:func:`modes_without_body`), the
+    band f_m +- w_m (Hz) in which a second mode cannot be told from it: w_m = max(zeta_m f_m, 1/T),
+    the half-power half-width or the resolution of the fitted window of length T, whichever is wider."""
+    projection = result.problem.likelihood.projection
+    resolution = projection.fs / (projection.n_blocks * projection.block)     # 1/T of the samples analysed
+    return [(frequency - (width := max(zeta * frequency, resolution)), frequency + width)
+            for frequency, zeta in modes_without_body(result)]
 
 
 def modes_without_body(result) -> list[tuple[float, float]]:
@@ -1057,8 +1068,8 @@ def _pickup_stand_in(parameters: dict, rec) -> dict | None:
 
 def trial_stand_in(t: Trial, parameters: dict) -> dict | None:
     """:func:`stand_in`'s verdict on the effect of trial ``t`` (``parameters``: its :func:`effect_parameters`)."""
-    modes = modes_without_body(t.result) if t.effect == "attachment" else None
-    return stand_in(t.effect, parameters, t.result.problem.model.recording, modes)
+    bands = unresolved_bands(t.result) if t.effect == "attachment" else None
+    return stand_in(t.effect, parameters, t.result.problem.model.recording, bands)
 
 
 def _trial_entry(t: Trial, signature) -> dict:
@@ -1140,13 +1151,14 @@ def _stand_in_sentence(effect: str, verdict: dict) -> str:
 
 
 def stand_in_clause(verdict: dict) -> str:
-    """What rules a stand-in's value out, in words: inside a beam mode's half-power band (a tuned
+    """What rules a stand-in's value out, in words: inside a beam mode's unresolved band (a tuned
     body), outside the range the set-up allows, or (no range: mains pickup) no persistent line at
     its harmonics."""
     if "within" in verdict:
         low, high = verdict["within"]
-        return (f"(posterior median) lies within beam mode {verdict['mode']}'s half-power band, "
-                f"{low:.6g} to {high:.6g} {verdict['unit']}")
+        return (f"(posterior median) lies within beam mode {verdict['mode']}'s unresolved band, "
+                f"{low:.6g} to {high:.6g} {verdict['unit']} (its half-power band or the fitted window's "
+                "resolution 1/T, whichever is wider)")
     if verdict["allowed"] is None:
         return "(fixed) has no persistent line at any of its harmonics in the record"
     low, high = verdict["allowed"]

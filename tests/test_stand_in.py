@@ -301,6 +301,8 @@ def test_a_diagnosis_adds_pickup_the_map_calls_not_beam_physics_and_it_is_no_sta
 # ---------------------------------------------------------------------------- a body tuned to a beam mode
 #: the fitted beam's modes without the body: (frequency Hz, damping ratio), lowest first
 MODES = [(3.6, 0.004), (22.6, 0.002), (63.3, 0.003)]
+#: their unresolved bands (Hz) over a long window, where each is the half-power band f_m (1 +- zeta_m)
+BANDS = [(f * (1 - zeta), f * (1 + zeta)) for f, zeta in MODES]
 
 
 def _body(f_a: float) -> dict:
@@ -311,16 +313,15 @@ def _body(f_a: float) -> dict:
 @pytest.mark.parametrize(("f_a", "expected"), [(22.6 * (1 + 0.99 * 0.002), 2), (22.6 * (1 - 0.99 * 0.002), 2),
                                                (22.6 * (1 + 1.01 * 0.002), None), (3.6 * (1 - 0.99 * 0.004), 1),
                                                (3.6 * (1 + 1.01 * 0.004), None), (45.0, None)])
-def test_a_body_tuned_within_a_modes_half_power_band_is_a_stand_in(f_a, expected):
-    """1 % inside a mode's half-power half-band zeta_m f_m either side is a tuned body, which the
-    response cannot tell from a second mode there; 1 % beyond it, or between modes, a body."""
-    verdict = stand_in("attachment", _body(f_a), recording(), MODES)
+def test_a_body_tuned_within_a_modes_band_is_a_stand_in(f_a, expected):
+    """1 % inside a mode's band either side is a tuned body, which the response cannot tell from a
+    second mode there; 1 % beyond it, or between modes, a body."""
+    verdict = stand_in("attachment", _body(f_a), recording(), BANDS)
     assert (verdict and verdict["mode"]) == expected
     if expected:
-        frequency, zeta = MODES[expected - 1]
         assert verdict["parameter"] == "f_a" and verdict["allowed"] is None
-        assert verdict["within"] == pytest.approx([frequency * (1 - zeta), frequency * (1 + zeta)], rel=1e-12)
-        assert f"within beam mode {expected}'s half-power band" in paragraph_words(verdict)
+        assert verdict["within"] == list(BANDS[expected - 1])
+        assert f"within beam mode {expected}'s unresolved band" in paragraph_words(verdict)
 
 
 def paragraph_words(verdict: dict) -> str:
@@ -329,10 +330,48 @@ def paragraph_words(verdict: dict) -> str:
     return _stand_in_sentence("attachment", verdict)
 
 
-def test_without_the_modes_a_tuned_body_is_judged_by_its_own_frequency_alone():
-    """The modes are what the tuned rule needs: without them only the far-above rule applies."""
+def test_without_the_bands_a_tuned_body_is_judged_by_its_own_frequency_alone():
+    """The bands are what the tuned rule needs: without them only the far-above rule applies."""
     assert stand_in("attachment", _body(22.6), recording()) is None
-    assert stand_in("attachment", _body(22.6), recording(), MODES)["mode"] == 2
+    assert stand_in("attachment", _body(22.6), recording(), BANDS)["mode"] == 2
+
+
+@pytest.mark.parametrize(("seconds", "widths"), [(100.0, [3.6 * 0.004, 22.6 * 0.002, 63.3 * 0.003]),
+                                                 (4.0, [0.25, 0.25, 0.25]), (10.0, [0.1, 0.1, 63.3 * 0.003])])
+def test_a_modes_band_is_its_half_power_band_or_the_windows_resolution_whichever_is_wider(monkeypatch, seconds, widths):
+    """w_m = max(zeta_m f_m, 1/T): over 100 s (resolution 0.01 Hz) every band is the half-power one;
+    over 4 s every band is +-0.25 Hz; over 10 s (0.1 Hz) modes 1 and 2 take the resolution and mode
+    3 (0.19 Hz) its own. T is the samples the likelihood analyses, its blocks (here 16 of 1/16 T)."""
+    import bayesbeam.diagnosis as dg
+
+    fs = 512.0
+    block = int(seconds * fs / 16)
+    projection = SimpleNamespace(fs=fs, i0=0, i1=16 * block + 7, block=block, n_blocks=16)
+    result = SimpleNamespace(problem=SimpleNamespace(likelihood=SimpleNamespace(projection=projection)))
+    monkeypatch.setattr(dg, "modes_without_body", lambda r: MODES if r is result else None)
+    bands = dg.unresolved_bands(result)
+    expected = [(f - w, f + w) for (f, _), w in zip(MODES, widths)]
+    assert np.array(bands) == pytest.approx(np.array(expected), rel=1e-12)
+
+
+def test_on_a_fitted_model_a_body_within_the_windows_resolution_of_mode_1_is_a_stand_in():
+    """The real steel record's case: a lightly damped mode 1 (half-power half-width far below 1/T)
+    and a body 5 % inside 1/T above it is a stand-in; 5 % beyond 1/T it is not. T here is the
+    recording's 2 s at 256 Hz, which the likelihood's 16 blocks of 32 samples cover whole."""
+    from bayesbeam.diagnosis import known_or_median, modes_without_body, unresolved_bands
+    from bayesbeam.inference.fit import FitConfig, prepare
+
+    rec = cases.simulated("q1", seed=3, fs=256.0, duration=2.0)[0]
+    problem = prepare(rec, "q1", FitConfig(n_intervals=6, effects=("attachment",)), 6)
+    assert rec.n_samples == 512 == problem.likelihood.projection.n_blocks * problem.likelihood.projection.block
+    values = known_or_median(problem.model, {})
+    theta = problem.posterior.coordinates({**values, **{n: 1.0 for n in problem.posterior.names if n not in values}})
+    result = SimpleNamespace(problem=problem, draws=np.tile(theta, (2, 3, 1)))
+    (f_1, zeta_1), *_ = modes_without_body(result)
+    assert zeta_1 * f_1 < 0.1 * 0.5                  # the window's resolution sets mode 1's band
+    bands = unresolved_bands(result)
+    assert stand_in("attachment", _body(f_1 + 0.95 * 0.5), rec, bands)["mode"] == 1
+    assert stand_in("attachment", _body(f_1 + 1.05 * 0.5), rec, bands) is None
 
 
 def test_the_modes_without_the_body_are_the_bare_beams():

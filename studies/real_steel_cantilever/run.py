@@ -118,7 +118,7 @@ def stand_in_cell(verdict: dict | None) -> str:
         return "no"
     if "within" in verdict:
         low, high = verdict["within"]
-        return f"yes: within mode {verdict['mode']}'s half-power band {low:.5g} to {high:.5g} {verdict['unit']}"
+        return f"yes: within mode {verdict['mode']}'s unresolved band {low:.5g} to {high:.5g} {verdict['unit']}"
     if verdict["allowed"] is None:
         return "yes: no persistent line at its harmonics"
     low, high = verdict["allowed"]
