@@ -826,7 +826,7 @@ def summarise(d: Diagnosis) -> dict:
         "not_beam_physics": [r for r in d.final_mismatch.regions if r.get("beam_physics") is False],
         "final": {**_model_entry(final, d.final_mismatch), "mismatch": d.final_mismatch.regions,
                   "parameters": posterior_summary(final)},
-        "summary": paragraph(d, [c["parameters"] for c in candidates]),
+        "summary": paragraph(d, candidates, given),
         "rankings": [{"round": i + 1, "chi2": r.chi2, "dof": r.dof, "p_value": r.p_value, "notes": r.notes,
                       "candidates": [c.to_dict() for c in r.candidates]} for i, r in enumerate(d.rankings)],
         "maps": {"baseline": d.baseline_mismatch.to_dict(), "final": d.final_mismatch.to_dict()},
@@ -1087,10 +1087,11 @@ def _trial_entry(t: Trial, signature) -> dict:
             "signature": None if signature is None else signature.to_dict()}
 
 
-def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
+def paragraph(d: Diagnosis, candidates: list[dict], given: dict[str, dict]) -> str:
     """What was missing, the evidence, how much the fit improved: in plain words.
 
-    ``parameters``: each trial's :func:`effect_parameters`, in the order of ``d.trials``.
+    ``candidates``: each trial's diagnosis.json entry (its ``parameters`` and ``stand_in``), in the
+    order of ``d.trials``; ``given``: :func:`given_stand_ins`.
     """
     base, bmap, fmap = d.baseline.name, d.baseline_mismatch, d.final_mismatch
     text = [(f"Baseline {base}: RMS standardized residual {bmap.rms_standardized_residual:.2f} "
@@ -1103,10 +1104,11 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
             f"{r['band_hz'][0]:.4g}-{r['band_hz'][1]:.4g} Hz on {r['sensor']}: {r['note']}" for r in lines) + ".")
     if not beam_regions(bmap) and not d.trials:
         text.append("Nothing the damping model leaves out shows above the noise: no effect was added.")
-        text += [_stand_in_sentence(effect, verdict) for effect, verdict in given_stand_ins(d).items()]
+        text += [_stand_in_sentence(effect, verdict) for effect, verdict in given.items()]
         return " ".join(text)
     rec = d.baseline.problem.model.recording
-    verdicts = [trial_stand_in(t, summary) for t, summary in zip(d.trials, parameters)]
+    parameters = [c["parameters"] for c in candidates]
+    verdicts = [c["stand_in"] for c in candidates]
     for t, summary in zip(d.trials, parameters):
         params = _estimates(summary) or _fixed_words(t)
         verdict = ("added, then dropped after the damping re-check" if t.dropped else
@@ -1128,7 +1130,7 @@ def paragraph(d: Diagnosis, parameters: list[dict]) -> str:
         text.append("No catalogue effect explains the mismatch.")
     text += [_stand_in_sentence(t.effect, verdict) for t, verdict in zip(d.trials, verdicts)
              if t.effect in d.added and verdict]
-    text += [_stand_in_sentence(effect, verdict) for effect, verdict in given_stand_ins(d).items()]
+    text += [_stand_in_sentence(effect, verdict) for effect, verdict in given.items()]
     if d.not_fitted:
         text.append("Not fitted: " + "; ".join(f"{n.model} ({n.reason})" for n in d.not_fitted) + ".")
     if d.recheck is not None:

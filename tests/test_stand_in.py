@@ -126,7 +126,7 @@ def test_a_stand_in_is_marked_in_its_entry_and_named_as_such_in_the_summary():
     entry = _trial_entry(d.trials[0], None)
     assert entry["added"] and entry["stand_in"]["parameter"] == "m_s_accel_tip"
     assert entry["stand_in"]["median"] == pytest.approx(0.080, rel=0.01)   # 100 draws of sd(log) 0.01
-    text = paragraph(d, [entry["parameters"]])
+    text = paragraph(d, [entry], {})
     assert "Stand-in, not a finding: sensor_mass's m_s_accel_tip" in text
     assert "a structural mismatch the catalogue cannot name" in text
     assert "Missing physics found" not in text and "No missing physics the set-up allows was found" in text
@@ -136,7 +136,7 @@ def test_an_effect_within_the_set_up_is_a_finding():
     d = diagnosis("sensor_mass", 0.0065)
     entry = _trial_entry(d.trials[0], None)
     assert entry["stand_in"] is None
-    text = paragraph(d, [entry["parameters"]])
+    text = paragraph(d, [entry], {})
     assert "Missing physics found: sensor_mass at accel_tip." in text and "Stand-in" not in text
 
 
@@ -173,7 +173,7 @@ def test_an_effect_given_with_the_baseline_is_judged_by_the_same_rule(median, ex
     d = given(median)
     verdicts = given_stand_ins(d)
     assert ("sensor_mass" in verdicts) == expected
-    text = paragraph(d, [])
+    text = paragraph(d, [], verdicts)
     assert ("Stand-in, not a finding: sensor_mass's m_s_accel_tip" in text) == expected
     model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 100.0}
     summary = {"baseline": {**model, "model": "q1+sensor_mass"}, "unexplained": False, "candidates": [],
@@ -269,7 +269,7 @@ def test_added_mains_pickup_is_reported_with_its_fixed_frequency(case, words):
     d = _mains_diagnosis(mains_record(case))
     entry = _trial_entry(d.trials[0], None)
     assert entry["parameters"] == {} and (entry["stand_in"] is not None) == (case == "null")
-    text = paragraph(d, [entry["parameters"]])
+    text = paragraph(d, [entry], {})
     assert "f_mains = 50 Hz (fixed): added" in text and words in text
     model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 400.0}
     report = {"baseline": {**model, "model": "q1"}, "unexplained": False, "candidates": [entry],
