@@ -543,6 +543,7 @@ def test_a_passing_candidate_that_lost_to_a_better_one_is_said_to_have_lost():
 
 
 @pytest.mark.slow
+@pytest.mark.long   # the default run reads a comparison back in tests/cli/test_diagnose_command.py
 def test_a_diagnosis_from_a_comparison_starts_from_its_baseline(monkeypatch, tmp_path):
     """plumbing: the cheap BeamModel-made root spring diagnosed without --model from a comparison of
     the default models written to a folder (write_comparison): compare() is never called for a

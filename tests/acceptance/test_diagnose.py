@@ -38,9 +38,9 @@ def _diagnosed(effect, displacement, executor):
     return diagnose(cases.hammer("q1", effect=effect, displacement=displacement)[0], "q1", CONFIG, executor)
 
 
-#: the effects whose diagnoses run in the long tier (docs/testing.md); the root spring's and the
-#: nulls' run in the default suite
-LONG_EFFECTS = ("measurement_delay", "sensor_mass")
+#: the effects whose diagnoses run in the long tier (docs/testing.md); the nulls' run in the default
+#: suite, beside tests/test_diagnosis.py's free decay (an axial load named, added and covered)
+LONG_EFFECTS = ("measurement_delay", "root_compliance", "sensor_mass")
 
 
 @pytest.mark.parametrize("effect", [pytest.param(e, marks=pytest.mark.long) if e in LONG_EFFECTS else e
