@@ -113,16 +113,10 @@ def diagnosis_table(d: dict) -> str:
 
 
 def stand_in_cell(verdict: dict | None) -> str:
-    """The diagnosis table's stand-in column: no, or what rules the median out (``diagnose.stand_in``)."""
-    if verdict is None:
-        return "no"
-    if "within" in verdict:
-        low, high = verdict["within"]
-        return f"yes: within mode {verdict['mode']}'s unresolved band {low:.5g} to {high:.5g} {verdict['unit']}"
-    if verdict["allowed"] is None:
-        return "yes: no persistent line at its harmonics"
-    low, high = verdict["allowed"]
-    return f"yes: outside {low:.3g} to {high:.3g} {verdict['unit']}"
+    """The diagnosis table's stand-in column: no, or what rules the median out (``diagnosis.stand_in_clause``)."""
+    from bayesbeam.diagnosis import stand_in_clause
+
+    return "no" if verdict is None else f"yes: {verdict['parameter']} {stand_in_clause(verdict)}"
 
 
 def setup_table(summary: dict) -> str:
