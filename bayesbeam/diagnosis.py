@@ -70,6 +70,7 @@ from bayesbeam.checks.signatures import LINE_EFFECTS, PLACES, rank_effects
 from bayesbeam.checks.survey import survey
 from bayesbeam.comparison import (
     DEFAULT_MODELS,
+    EARLY_STOP_NATS,
     CompareConfig,
     compare,
     expand_model_sets,
@@ -88,6 +89,7 @@ from bayesbeam.inference.priors import (
     stated_gain_tolerances,
     stated_sensor_masses,
 )
+from bayesbeam.inference.screens import laplace_log_evidence
 from bayesbeam.model import BeamModel, join_model, resolve_model, split_model
 from bayesbeam.physics.effects import REGISTRY as EFFECTS
 from bayesbeam.physics.effects.mains_lines import nominal_mains
@@ -257,6 +259,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         f"{len(mismatch.regions)} mismatch region(s)")
     rankings, trials, not_fitted, last_added = [], [], [], None
     spare = {}                      # hosted fits not chosen as their effect's trial: model -> ModelResult
+    ceilings = {}                   # hosts not sampled: model -> its optimum's log likelihood
     first = first_fits(results, damping, effects)
     for round_ in range(1, config.rounds + 1):
         ranking = rank_effects(current.problem.posterior, _draws(current), mismatch, config.catalogue)
@@ -275,7 +278,11 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         if not chosen and not hosted:
             break
         say(f"round {round_}: fitting {', '.join([current.name + '+' + c.effect for c in chosen] + list(hosted))}")
-        fitted = _fit_augmented(rec, current, chosen, config, executor, log, hosted)
+        fitted, hosted, unsampled = _fit_augmented(rec, current, chosen, config, executor, log, hosted)
+        for spec, (ceiling, why) in unsampled.items():
+            not_fitted.append(NotFitted(round_, spec, why))
+            ceilings[spec] = ceiling
+            say(f"round {round_}: not sampling {spec}: {why}")
         best_hosted = _best_hosted(hosted, fitted[len(chosen):])
         spare.update({r.name: r for r in fitted[len(chosen):] if r not in best_hosted.values()})
         round_trials = [_trial(round_, e, current, mismatch, f, rng, config)
@@ -293,7 +300,8 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     recheck = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
-        recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first, fitted=spare)
+        recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first, fitted=spare,
+                                  ceilings=ceilings)
         not_fitted += recheck.not_fitted
         if recheck.switched:
             current = prune_added(rec, recheck, effects, added, first, config, executor, log)
@@ -329,7 +337,7 @@ def baseline_fits(rec, models: list, named: bool, config: DiagnoseConfig, execut
 
 
 def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log,
-                    first: dict | None = None, fitted: dict | None = None) -> DampingRecheck:
+                    first: dict | None = None, fitted: dict | None = None, ceilings: dict | None = None) -> DampingRecheck:
     """Compare the damping models ``config.models`` + ``effects`` (those that can carry them) with ``current``.
 
     ``current`` (a damping model + the effects, already fitted) is not refitted. The switch needs
@@ -339,12 +347,18 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     (and the shared parameters') values of ``current`` (:func:`_recheck_start`): the global
     search alone can miss the optimum of a model twice as wide as the one it found first.
     ``fitted``: models fitted before with the same effects (model -> ModelResult: the hosts of a
-    nonlinear effect, :func:`_hosted`), taken as they are.
+    nonlinear effect, :func:`_hosted`), taken as they are. ``ceilings``: models optimised before
+    but not sampled (model -> its optimum's log likelihood, :func:`unsampled_hosts`): one whose
+    ceiling trails ``current``'s log evidence by :data:`~bayesbeam.comparison.EARLY_STOP_NATS`
+    beyond three of its standard errors cannot be the better model, and is not fitted again.
     """
     say = log or (lambda _text: None)
     known = _optimum_values(current)
     specs = {join_model(m, effects): m for m in config.models}
     others, left_out = _leave_out_slow(rec, {s: known for s in specs if s != current.name and combinable(s)}, 0)
+    below = {s: why for s in others if s in (ceilings or {}) and (why := _below(ceilings[s], current))}
+    others = [s for s in others if s not in below]
+    left_out += [NotFitted(0, s, why) for s, why in below.items()]
     reused = {s: fitted[s] for s in others if s in (fitted or {})}
     to_fit = [s for s in others if s not in reused]
     say(f"re-checking the damping with {', '.join(effects)}: {', '.join(others)}"
@@ -414,6 +428,17 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
         final = fitted[spec]
     recheck.final = final.name
     return final
+
+
+def _below(ceiling: float, current) -> str | None:
+    """Why a model whose highest log likelihood found is ``ceiling`` cannot beat ``current`` (its
+    log evidence, at most that ceiling, trails current's by EARLY_STOP_NATS beyond three of
+    current's standard errors), or None."""
+    behind = current.evidence.log_z - 3 * current.evidence.log_z_sd - ceiling
+    if behind <= EARLY_STOP_NATS:
+        return None
+    return (f"its optimum's log likelihood, which bounds its log evidence from above, lies {behind:.1f} nats "
+            f"below {current.name}'s log evidence (less three standard errors)")
 
 
 def too_slow(rec, spec: str, known: dict) -> str | None:
@@ -679,9 +704,11 @@ def _best_hosted(hosted: dict, results: list) -> dict:
     return best
 
 
-def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log, hosted=None) -> list:
-    """ModelResults of ``current + effect`` for each candidate, then of each ``hosted`` model
-    (:func:`_hosted`), in one comparison (parallel over models), from :func:`_optimised`.
+def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log,
+                   hosted=None) -> tuple[list, dict, dict]:
+    """(ModelResults of ``current + effect`` for each candidate, then of each host sampled, in
+    one comparison (parallel over models), from :func:`_optimised`; the hosts sampled, as
+    ``hosted`` (:func:`_hosted`); the hosts not sampled, :func:`unsampled_hosts`).
 
     Each candidate is optimised from its global search and, as well, from the current model's
     optimum with the effect at the signature's value: the augmented model nests the current one,
@@ -694,10 +721,15 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
     specs = [f"{current.name}+{c.effect}" for c in candidates]
     starts = {s: _probe_values(current, c) for s, c in zip(specs, candidates) if c.value is not None}
     hosted = hosted or {}
+    optima = _optimised(rec, specs, starts, hosted, config, executor, log)
+    unsampled = unsampled_hosts({s: effect for s, (effect, _) in hosted.items()},
+                                {s: _at_optimum(optima[s])[1] for s in hosted},
+                                {s: laplace_log_evidence(optima[s][1])["log_evidence"] for s in hosted})
+    hosted = {s: h for s, h in hosted.items() if s not in unsampled}
     results, _ = compare(rec, specs + list(hosted), config.compare, executor, log,
                          rivals={current.name: current.evidence},
-                         optimised=_optimised(rec, specs, starts, hosted, config, executor, log))
-    return [results[s] for s in specs + list(hosted)]
+                         optimised={s: optima[s] for s in specs + list(hosted)})
+    return [results[s] for s in specs + list(hosted)], hosted, unsampled
 
 
 def _optimised(rec, specs: list, starts: dict, hosted: dict, config: DiagnoseConfig, executor, log) -> dict:
@@ -730,6 +762,37 @@ def _optimised(rec, specs: list, starts: dict, hosted: dict, config: DiagnoseCon
         progress(f"{spec}: its optimum's log likelihood {behind:.1f} nats below {source}'s; optimised again "
                  f"from that host's values: {abs(now):.1f} nats {'above' if now > 0 else 'below'}")
     return optima
+
+
+def unsampled_hosts(effect_of: dict, ceilings: dict, laplace: dict) -> dict[str, tuple[float, str]]:
+    """The hosts of a nonlinear effect left unsampled (no SMC): spec -> (its ceiling, why).
+
+    ``effect_of``: spec -> the effect it hosts; ``ceilings``: spec -> its optimum's log likelihood
+    (after :func:`_optimised`'s cross starts); ``laplace``: spec -> the Laplace estimate of its log
+    evidence at that optimum (None where its covariance is not positive definite). A host's log
+    evidence is at most the highest log likelihood it reaches, which its optimum stands for; the
+    leading host of the effect (the highest Laplace estimate, capped at its own ceiling, which
+    bounds it) is sampled, and a host whose ceiling trails that estimate by more than
+    :data:`~bayesbeam.comparison.EARLY_STOP_NATS` cannot be the effect's best host, and is not.
+
+    On the 8 s friction release (benchmarks/nonlinear_long.py) the hosts' optima after the cross
+    starts trailed the best's by 335 nats (air) and 1460 (strain rate), and their SMC log
+    evidences by 329 and 1453: each host's SMC there took as long as the best host's.
+    """
+    out = {}
+    for effect in dict.fromkeys(effect_of.values()):
+        group = [s for s in effect_of if effect_of[s] == effect]
+        estimates = {s: min(laplace[s], ceilings[s]) for s in group if laplace[s] is not None}
+        if not estimates:
+            continue
+        leader = max(estimates, key=estimates.get)
+        for spec in group:
+            behind = estimates[leader] - ceilings[spec]
+            if spec != leader and behind > EARLY_STOP_NATS:
+                why = (f"its optimum's log likelihood, which bounds its log evidence from above, lies {behind:.1f} "
+                       f"nats below the Laplace estimate of {leader}'s log evidence, so it cannot be {effect}'s best host")
+                out[spec] = (ceilings[spec], why)
+    return out
 
 
 def _at_optimum(optimised) -> tuple[dict, float]:

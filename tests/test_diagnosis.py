@@ -319,6 +319,62 @@ def test_a_host_whose_optimum_trails_the_best_host_of_its_effect_starts_again_fr
     assert again == {"q1+dry_friction": ({"EI": 44.0, "gamma": 0.3, "cdI": 7e-5, "F_c": 0.02}, "air+dry_friction", 10.0)}
 
 
+def test_a_host_whose_ceiling_trails_the_leading_hosts_evidence_is_not_sampled():
+    """unsampled_hosts, with the 8 s friction release's gaps: air and strain_rate's optima 335 and
+    1460 nats below q1's, whose Laplace estimate lies 40 nats below its ceiling: both left out;
+    q3 (its ceiling 2 nats above q1's: it nests q1) and a host 59 nats below the estimate (within
+    EARLY_STOP_NATS = 20 of it: 19 nats) are sampled, and so is every drag host (compared among
+    themselves only: the lower one is 15 nats below the estimate). The leader is the highest
+    estimate, each capped at its own ceiling: a Laplace estimate of q3 50 nats above q1's ceiling
+    counts as q3's ceiling, 2 nats above it, so q1 stays sampled (uncapped, it would be left out)
+    and the host 61 nats below q3's ceiling is left out."""
+    from bayesbeam.diagnosis import unsampled_hosts
+
+    effect_of = {"air+dry_friction": "dry_friction", "q1+dry_friction": "dry_friction", "q3+dry_friction": "dry_friction",
+                 "strain_rate+dry_friction": "dry_friction", "x+dry_friction": "dry_friction",
+                 "q1+quadratic_drag": "quadratic_drag", "air+quadratic_drag": "quadratic_drag"}
+    top = 18900.0
+    ceilings = {"q1+dry_friction": top, "air+dry_friction": top - 335, "q3+dry_friction": top + 2,
+                "strain_rate+dry_friction": top - 1460, "x+dry_friction": top - 59,
+                "q1+quadratic_drag": 500.0, "air+quadratic_drag": 480.0}
+    laplace = {"q1+dry_friction": top - 40, "air+dry_friction": top - 370, "q3+dry_friction": None,
+               "strain_rate+dry_friction": top - 1490, "x+dry_friction": top - 90,
+               "q1+quadratic_drag": 495.0, "air+quadratic_drag": 478.0}
+    out = unsampled_hosts(effect_of, ceilings, laplace)
+    assert set(out) == {"air+dry_friction", "strain_rate+dry_friction"}
+    assert out["air+dry_friction"][0] == top - 335
+    assert "295.0 nats below the Laplace estimate of q1+dry_friction's" in out["air+dry_friction"][1]
+    laplace["q3+dry_friction"] = top + 50            # above its own ceiling: counts as top + 2
+    assert set(unsampled_hosts(effect_of, ceilings, laplace)) == {"air+dry_friction", "strain_rate+dry_friction",
+                                                                  "x+dry_friction"}
+    assert unsampled_hosts(effect_of, ceilings, dict.fromkeys(laplace)) == {}
+
+
+def test_the_recheck_does_not_refit_a_host_left_unsampled_below_the_current_model(monkeypatch):
+    """A host not sampled (its ceiling known) is not fitted by the damping re-check when that
+    ceiling trails the current model's log evidence by more than EARLY_STOP_NATS beyond three of
+    its standard errors (air: 30 nats below); one within it (strain_rate: 15 below) is fitted."""
+    import bayesbeam.diagnosis as dg
+
+    current = _result("q1+dry_friction", -20.0)
+    asked = []
+
+    def fake_compare(rec, models, config, executor, log, **options):
+        asked.extend(models)
+        return {m: _result(m, -60.0) for m in models}, None
+
+    monkeypatch.setattr(dg, "compare", fake_compare)
+    monkeypatch.setattr(dg, "summarise_comparison", lambda rec, results, seconds: {
+        "best": max(results, key=lambda m: results[m].evidence.log_z)})
+    monkeypatch.setattr(dg, "too_slow", lambda rec, spec, known: None)
+    config = dg.DiagnoseConfig(models=("q1", "air", "strain_rate"))
+    recheck = dg.recheck_damping(None, current, ("dry_friction",), config, None, None,
+                                 ceilings={"air+dry_friction": -50.0, "strain_rate+dry_friction": -35.0})
+    assert asked == ["strain_rate+dry_friction"]
+    assert [n.model for n in recheck.not_fitted] == ["air+dry_friction"]
+    assert "lies 29.7 nats below q1+dry_friction's log evidence" in recheck.not_fitted[0].reason
+
+
 def test_hosts_are_optimised_again_from_the_best_hosts_values_and_the_higher_optimum_kept(monkeypatch):
     """_optimised with optimise_job replaced: the candidate and each host are optimised in one wave
     from their own starts, then the host trailing by more than DECISIVE again from the best host's
