@@ -282,7 +282,6 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         for spec, (ceiling, why) in unsampled.items():
             not_fitted.append(NotFitted(round_, spec, why))
             ceilings[spec] = ceiling
-            say(f"round {round_}: not sampling {spec}: {why}")
         best_hosted = _best_hosted(hosted, fitted[len(chosen):])
         spare.update({r.name: r for r in fitted[len(chosen):] if r not in best_hosted.values()})
         round_trials = [_trial(round_, e, current, mismatch, f, rng, config)
@@ -726,6 +725,8 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
                                 {s: _at_optimum(optima[s])[1] for s in hosted},
                                 {s: laplace_log_evidence(optima[s][1])["log_evidence"] for s in hosted})
     hosted = {s: h for s, h in hosted.items() if s not in unsampled}
+    for spec, (_, why) in unsampled.items():
+        as_progress(log)(f"not sampling {spec}: {why}")
     results, _ = compare(rec, specs + list(hosted), config.compare, executor, log,
                          rivals={current.name: current.evidence},
                          optimised={s: optima[s] for s in specs + list(hosted)})
