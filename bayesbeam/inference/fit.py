@@ -28,7 +28,7 @@ from bayesbeam.io import RecordingError
 from bayesbeam.model import BeamModel
 from bayesbeam.progress import as_progress
 from bayesbeam.response.linear import PASSBAND
-from bayesbeam.response.signals import EDGE, decimate, force_noise
+from bayesbeam.response.signals import EDGE, decimate, force_noise, release_rest
 
 #: refinement ladders for the automatic choice of N, per spline degree; the quintic's rungs reach
 #: the cubic's in-band response accuracy with a third to a fifth of the intervals (benchmarks/basis.py)
@@ -154,7 +154,7 @@ def prepare(rec, mechanisms, config: FitConfig, n_intervals: int) -> Problem:
     # a hit near the start: the decimating low-pass spreads its force back before the record,
     # and the model must be driven by that part too (signals.decimate)
     lead = EDGE if factor > 1 and rec.excitation.kind == "force" else 0
-    data = decimate(rec, factor, force_window=config.force_window, lead=lead)
+    data = decimate(rec, factor, force_window=config.force_window, lead=lead, rest=release_rest(rec))
     model = BeamModel.from_recording(data, mechanisms, n_intervals, force_window=False,
                                      effects=config.effects, degree=config.degree)
     i0, i1 = _window(data, config, edge=EDGE if factor > 1 else 0, first=rec.time[0])

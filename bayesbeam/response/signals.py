@@ -303,7 +303,7 @@ def _warn_many_latent(recording, hits, n_kept: int, n_latent: int, factor: int) 
         stacklevel=3)
 
 
-def decimate(recording, factor: int, *, force_window: bool | None = None, lead: int = 0):
+def decimate(recording, factor: int, *, force_window: bool | None = None, lead: int = 0, rest=None):
     """The recording low-passed and resampled at fs/factor, as the DAQ would have recorded it.
 
     Force and response channels pass the same zero-phase DAQ passband at the new rate
@@ -321,6 +321,12 @@ def decimate(recording, factor: int, *, force_window: bool | None = None, lead: 
     % of its in-band content (a hit 10 ms into a record decimated from 4096 to 409.6 Hz: -3 % at
     DC, +5 % at 127 Hz), and so does the modelled response. The samples from the record's start
     on are the same with or without the lead.
+
+    ``rest`` (n_sensors,): what the response channels read before the record's start, where they
+    are not zero (:func:`release_rest`: a release's static deflection); the low-pass then sees
+    those values over the kernel's reach before the start, as the DAQ's filter saw them, instead
+    of a step from zero to the first sample, which would disturb the first :data:`EDGE` samples
+    (by 40 % of the static deflection at the first, on a displacement channel).
     """
     factor = int(factor)
     if factor < 1:
@@ -331,18 +337,32 @@ def decimate(recording, factor: int, *, force_window: bool | None = None, lead: 
     if factor == 1:
         return replace(recording, force=force)
     before = int(lead) * factor
+    # full-rate samples of ``rest`` the kernel sees (none where every channel rested at zero: the padding's zeros)
+    reach = EDGE * factor if rest is not None and np.any(rest) else 0
     n = recording.n_samples + before
-    n_fft = 2 * n
+    n_fft = 2 * (n + reach)
     weight = daq_passband(np.fft.rfftfreq(n_fft, recording.dt), recording.fs / factor)
 
-    def low_pass(x):
-        x = np.concatenate([np.zeros((before,) + x.shape[1:]), x])
+    def low_pass(x, held=0.0):
+        x = np.concatenate([np.broadcast_to(held, (reach,) + x.shape[1:]), np.zeros((before,) + x.shape[1:]), x])
         return np.fft.irfft(np.fft.rfft(x, n_fft, axis=0) * weight.reshape((-1,) + (1,) * (x.ndim - 1)),
-                            n_fft, axis=0)[:n:factor]
+                            n_fft, axis=0)[reach:reach + n:factor]
 
     time = np.concatenate([recording.time[0] - recording.dt * np.arange(before, 0, -factor), recording.time[::factor]])
-    return replace(recording, time=time, signals=low_pass(recording.signals),
+    return replace(recording, time=time, signals=low_pass(recording.signals, 0.0 if rest is None else rest),
                    force=None if force is None else low_pass(force))
+
+
+def release_rest(recording) -> np.ndarray | None:
+    """What each response channel of a release recording read while the tip load was held, for
+    :func:`decimate`'s ``rest``: a displacement channel its static deflection (the mean of its
+    samples up to the release at t = 0), acceleration and velocity zero. None for other
+    recordings, and for a release recorded from after t = 0 (the beam was already moving)."""
+    if recording.excitation.kind != "release" or recording.time[0] > 0:
+        return None
+    held = recording.time <= 0
+    return np.array([recording.signals[held, i].mean() if sensor.quantity == "displacement" else 0.0
+                     for i, sensor in enumerate(recording.sensors)])
 
 
 #: samples (of the decimated rate) at the end of a decimated record disturbed by the low-pass
