@@ -42,15 +42,15 @@ def pytest_configure(config):
 SLOWEST_FIRST = (                                     # default  long
     "tests/acceptance/test_compare.py",               #   -      445 s
     "tests/acceptance/test_sensor_order.py",          #  <1 s    295 s
-    "tests/test_diagnosis.py",                        # 205 s     -
-    "tests/checks/test_signatures.py",                # 195 s     -
-    "tests/test_python_docs.py",                      # 170 s     -
-    "tests/acceptance/test_diagnose.py",              # 105 s    190 s
+    "tests/checks/test_signatures.py",                # 205 s     -
+    "tests/test_python_docs.py",                      # 190 s     -
+    "tests/acceptance/test_diagnose.py",              #  40 s    265 s
     "tests/acceptance/test_calibration.py",           #  <1 s    170 s
     "tests/acceptance/test_literature.py",            #   -      160 s
-    "tests/studies/test_first_run.py",                # 110 s     -
+    "tests/test_diagnosis.py",                        # 140 s     65 s
+    "tests/studies/test_first_run.py",                # 130 s     -
     "tests/test_resume.py",                           #  80 s     -
-    "tests/inference/test_evidence.py",               #  50 s     80 s
+    "tests/inference/test_evidence.py",               #  60 s     80 s
     "tests/report/test_diagnosis_report.py",          #  55 s     -
     "tests/acceptance/test_fit.py",                   #   -       45 s
 )
