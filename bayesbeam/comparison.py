@@ -327,7 +327,7 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
     """
     leader = max(evidences, key=lambda m: evidences[m].log_z)
     top = evidences[leader]
-    floor = top.log_z if top.log_z_sd <= EVIDENCE_SD_MAX else min(run.log_z for run in top.runs)
+    floor = _floor(top)
     out = {}
     for m, e in evidences.items():
         if m == leader or (candidates is not None and m not in candidates):
@@ -338,11 +338,23 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
                 out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats: {behind:.1f} +- {sd:.1f} nats behind "
                           f"{leader}, more than {margin:g} nats beyond three standard errors, so its remaining "
                           f"repeats could not change the ranking")
-        elif m in (ceilings or {}) and floor - 3 * top.log_z_sd - ceilings[m] > margin:
+        elif m in (ceilings or {}) and ceiling_gap(top, ceilings[m]) > margin:
             out[m] = (f"stopped after {len(e.runs)} of {repeats} repeats, unsettled: even the highest log likelihood "
                       f"found for it, which bounds its log evidence from above, is {floor - ceilings[m]:.1f} nats below "
                       f"{leader}'s log evidence, more than {margin:g} nats beyond three standard errors")
     return out
+
+
+def _floor(top) -> float:
+    """The log Z a leader counts with: its own when settled, else its lowest run (its runs err low)."""
+    return top.log_z if top.log_z_sd <= EVIDENCE_SD_MAX else min(run.log_z for run in top.runs)
+
+
+def ceiling_gap(top, ceiling: float) -> float:
+    """How far a model whose highest log likelihood found is ``ceiling`` (which bounds its log
+    evidence from above) lies below the evidence ``top``, less three of top's standard errors
+    (:func:`beaten`'s rule for an unsettled model)."""
+    return _floor(top) - 3 * top.log_z_sd - ceiling
 
 
 def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, log, skip=()) -> dict:

@@ -72,6 +72,7 @@ from bayesbeam.comparison import (
     DEFAULT_MODELS,
     EARLY_STOP_NATS,
     CompareConfig,
+    ceiling_gap,
     compare,
     expand_model_sets,
     left_out_words,
@@ -432,8 +433,8 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
 def _below(ceiling: float, current) -> str | None:
     """Why a model whose highest log likelihood found is ``ceiling`` cannot beat ``current`` (its
     log evidence, at most that ceiling, trails current's by EARLY_STOP_NATS beyond three of
-    current's standard errors), or None."""
-    behind = current.evidence.log_z - 3 * current.evidence.log_z_sd - ceiling
+    current's standard errors: :func:`~bayesbeam.comparison.ceiling_gap`), or None."""
+    behind = ceiling_gap(current.evidence, ceiling)
     if behind <= EARLY_STOP_NATS:
         return None
     return (f"its optimum's log likelihood, which bounds its log evidence from above, lies {behind:.1f} nats "
