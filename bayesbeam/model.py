@@ -547,6 +547,47 @@ class BeamModel:
         """Undamped-equivalent natural frequencies |p|/(2 pi) (Hz), lowest first."""
         return np.abs(self.poles(params))[:n_modes] / (2 * np.pi)
 
+    def mode_labels(self, params) -> list[str]:
+        """Each oscillatory pole's name (:meth:`poles`' order): "mode k", k numbering the beam's modes
+        alone, or the ``own_mode`` words of the effect whose own mass carries more than half of that
+        mode's kinetic energy (an attached body's, a base's).
+
+        The share is phi^T M_e phi of the undamped mode phi (mass-normalised) nearest the pole,
+        M_e the effect's mass: a body far below the beam's first mode carries nearly all of its
+        mode's energy and the beam's first mode stays "mode 1"; a body tuned to a beam mode shares
+        the pair's energy about equally, and the pair is named by which side of 1/2 each falls.
+        """
+        v = self.values(params)
+        system = self._system(v)
+        poles = system.poles()
+        owned = self._own_masses(v, system.size)
+        owners = [None] * len(poles)
+        if owned:
+            w, phi = np.sqrt(np.abs(system.undamped[0])), system.undamped[1]
+            nearest = np.argmin(np.abs(w[None] - np.abs(poles)[:, None]), axis=1)
+            shares = {e: np.einsum("ij,ik,kj->j", phi, m, phi)[nearest] for e, m in owned.items()}
+            owners = [next((e for e, share in shares.items() if share[i] > 0.5), None) for i in range(len(poles))]
+        beam_modes = np.cumsum([owner is None for owner in owners])
+        words = {e.name: e.own_mode for e in self.effects}
+        return [f"mode {k}" if owner is None else words[owner] for owner, k in zip(owners, beam_modes)]
+
+    def _own_masses(self, v: dict[str, float], size: int) -> dict:
+        """Each effect with an ``own_mode``: its mass matrix (size, size) alone, the one it adds
+        (:meth:`Effect.mass`) and that of the degrees of freedom it appends (:meth:`Effect.extend`)."""
+        ops, setup = self.operators(v), self._setup_at(v)
+        out, grown = {}, ops.size
+        for e in self.effects:
+            zero = np.zeros((grown, grown))
+            appended = e.extend(ops, v, setup, zero, zero, zero)[0]
+            if e.own_mode:
+                own = np.pad(appended, (0, size - len(appended)))
+                added = e.mass(ops, v, setup)
+                if added is not None:
+                    own[: ops.size, : ops.size] += added
+                out[e.name] = own
+            grown = len(appended)
+        return out
+
     def modal_damping_ratios(self, params, n_modes: int | None = None) -> np.ndarray:
         """Modal damping ratios zeta = -Re(p)/|p| (fraction, not %), lowest mode first."""
         p = self.poles(params)[:n_modes]

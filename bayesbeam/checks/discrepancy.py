@@ -460,19 +460,22 @@ def _mode_rows(lik, params, s: Setting, obs, err, n_rep) -> list[dict]:
     m = len(s.f_model)
     model_f = lik.model.natural_frequencies(params)[:m]
     model_zeta = lik.model.modal_damping_ratios(params)[:m]
+    labels = lik.model.mode_labels(params)
     level = ALPHA / 3 / (len(MODE_STATISTICS) * max(m, 1))
     stats_ = {k: err[k] for k in MODE_STATISTICS}
-    return [_mode_row(i, stats_, obs, s.channel[i], lik.channels, level, n_rep, model_f[i], model_zeta[i],
-                      err["rates"][2][i]) for i in range(m)]
+    return [_mode_row(i, labels[i], stats_, obs, s.channel[i], lik.channels, level, n_rep, model_f[i],
+                      model_zeta[i], err["rates"][2][i]) for i in range(m)]
 
 
-def _mode_row(m, err, obs, ch, channels, level, n_rep, model_f, model_zeta, rates_rep) -> dict:
-    """One row of the per-mode table, with its flags and plain-language note."""
+def _mode_row(m, label, err, obs, ch, channels, level, n_rep, model_f, model_zeta, rates_rep) -> dict:
+    """One row of the per-mode table, with its flags and plain-language note. ``mode`` counts the
+    model's modes (the features' index); ``label`` names it, the beam's numbered without an
+    effect's own (:meth:`bayesbeam.model.BeamModel.mode_labels`)."""
     pick = {k: tuple(v[m, ch] if k == "amplitude" else v[m] for v in err[k]) for k in err}
     p = {k: _t_p_value(e, sd, n_rep) for k, (e, sd, _) in pick.items()}
     flags = [k for k in MODE_STATISTICS if p[k] is not None and p[k] < level]
     zeta_rep = pick["damping"][2]
-    row = {"mode": m + 1, "sensor": channels[ch], "model_frequency_hz": float(model_f),
+    row = {"mode": m + 1, "label": label, "sensor": channels[ch], "model_frequency_hz": float(model_f),
            "measured_frequency_hz": _num(np.exp(obs["frequency"][m])),
            "replicated_frequency_hz": _num(np.exp(pick["frequency"][2])),
            "frequency_error_pct": _num(100 * np.expm1(pick["frequency"][0])),
@@ -511,10 +514,10 @@ def _decay_shape(curvature_error, flagged) -> str:
 
 def _mode_note(row) -> str:
     """The flagged findings of one mode in words, e.g. 'mode 1 is 2.1% low (3.61 Hz measured, ...)'."""
-    m, flags, parts = row["mode"], row["flags"], []
+    m, flags, parts = mode_label(row), row["flags"], []
     if "frequency" in flags:
         e = row["frequency_error_pct"]
-        parts.append(f"mode {m} is {abs(e):.2g}% {'low' if e < 0 else 'high'} ({row['measured_frequency_hz']:.5g} Hz "
+        parts.append(f"{m} is {abs(e):.2g}% {'low' if e < 0 else 'high'} ({row['measured_frequency_hz']:.5g} Hz "
                      f"measured, {row['replicated_frequency_hz']:.5g} Hz in the model's replicates)")
     if "damping" in flags:
         e = row["damping_error_pct"]
@@ -532,10 +535,16 @@ def _mode_note(row) -> str:
         e = row["phase_error_rad"]
         parts.append(f"at the excitation its phase {'lags' if e < 0 else 'leads'} the model's by {abs(e):.2g} rad")
     if not parts:
-        return (f"mode {m} ({row['model_frequency_hz']:.4g} Hz): frequency, damping, amplitude, decay shape and "
+        return (f"{m} ({row['model_frequency_hz']:.4g} Hz): frequency, damping, amplitude, decay shape and "
                 f"phase each within the model's replicates")
     text = "; ".join(parts)
-    return text if text.startswith("mode") else f"mode {m}: {text}"
+    return text if "frequency" in flags else f"{m}: {text}"
+
+
+def mode_label(row) -> str:
+    """A per-mode row's name ('mode 2', "the attached body's own mode"); a row written before rows
+    carried their label is named by its index."""
+    return row.get("label") or f"mode {row['mode']}"
 
 
 def feature_names(n_modes: int, channels) -> list[str]:
@@ -718,7 +727,7 @@ def _line_note(f_line, c, lik, s: Setting, params) -> str:
     near = int(np.argmin(np.abs(f - f_line)))
     if abs(f[near] - f_line) <= max(MODE_TOLERANCE * f[near], 2 * proj.fs / proj.block):
         # a mode above 0.9 of the band's top is fitted but has no per-mode statistics
-        return (f"residual at {f_line:.4g} Hz, at model mode {near + 1} ({f[near]:.4g} Hz) near the top of the "
+        return (f"residual at {f_line:.4g} Hz, at the model's {lik.model.mode_labels(params)[near]} ({f[near]:.4g} Hz) near the top of the "
                 f"band, where the per-mode statistics are not computed: that mode's misfit")
     zeta = np.interp(f_line, f, lik.model.modal_damping_ratios(params))
     beam = float(np.exp(-2 * np.pi * f_line * zeta * 2 / 3 * (proj.i1 - proj.i0) / proj.fs))

@@ -116,6 +116,7 @@ from bayesbeam.checks.discrepancy import (
     feature_vector,
     line_persistence,
     mode_amplitudes,
+    mode_label,
     mode_phases,
     statistics,
 )
@@ -754,13 +755,15 @@ def _predicted(space, signature, mismatch) -> dict:
     return dict(zip(names, space.adjusted(signature).tolist()))
 
 
-def _label(name: str) -> tuple[str, str, int]:
-    """(words, kind, mode) of a feature name: 'ln_A2_tip' -> ('mode 2 amplitude at tip', 'ln_A', 2)."""
+def _label(name: str, modes=None) -> tuple[str, str, int]:
+    """(words, kind, mode) of a feature name: 'ln_A2_tip' -> ('mode 2 amplitude at tip', 'ln_A', 2);
+    with the map's per-mode rows ``modes`` the mode is named by its row's label."""
     for kind, words in (("ln_f", "frequency"), ("zeta", "damping ratio"), ("ln_A", "amplitude"),
                         ("curvature", "decay curvature"), ("phase", "phase at the excitation")):
         if name.startswith(kind):
             mode, _, sensor = name[len(kind):].partition("_")
-            return f"mode {mode} {words}" + (f" at {sensor}" if sensor else ""), kind, int(mode)
+            named = f"mode {mode}" if modes is None else mode_label(modes[int(mode) - 1])
+            return f"{named} {words}" + (f" at {sensor}" if sensor else ""), kind, int(mode)
     raise ValueError(f"unknown feature {name!r}")
 
 
@@ -780,7 +783,7 @@ def _reasoning(c: Candidate, mismatch) -> str:
     pulls = sorted(c.predicted, key=lambda n: -abs(c.predicted[n]) / f.sd[index[n]])[:3]
     seen = []
     for n in pulls:
-        words, kind, mode = _label(n)
+        words, kind, mode = _label(n, mismatch.modes)
         zeta = mismatch.modes[mode - 1]["replicated_damping_ratio"]
         seen.append(f"{words} {_format(kind, f.observed[index[n]], zeta)} +- {_format(kind, f.sd[index[n]], zeta, '')}"
                     f" observed, {_format(kind, c.predicted[n], zeta)} predicted")
@@ -802,7 +805,7 @@ def _contrast(best: Candidate, other: Candidate, mismatch) -> str:
     f = mismatch.features
     index = {n: i for i, n in enumerate(f.names)}
     name = max(best.predicted, key=lambda n: abs(best.predicted[n]) / f.sd[index[n]])
-    words, kind, mode = _label(name)
+    words, kind, mode = _label(name, mismatch.modes)
     zeta = mismatch.modes[mode - 1]["replicated_damping_ratio"]
     there = f" (it predicts {_format(kind, other.predicted[name], zeta)} for the {words})" \
         if name in other.predicted else ""

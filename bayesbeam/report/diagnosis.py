@@ -15,7 +15,7 @@ import numpy as np
 from matplotlib.colors import LogNorm
 from matplotlib.patches import Rectangle
 
-from bayesbeam.checks.discrepancy import share_words
+from bayesbeam.checks.discrepancy import mode_label, share_words
 from bayesbeam.comparison import R_HAT_MAX, strength
 from bayesbeam.diagnosis import flags, stand_in_clause
 from bayesbeam.io.atomic import write_text
@@ -249,7 +249,8 @@ def _place(region: dict, modes: dict) -> str:
     """Where a region is: its mode and the model's frequency of it ('mode 2 (41.38 Hz)'), or its
     frequency (its peak, or its band's middle)."""
     if region.get("mode") in modes:
-        return f"mode {region['mode']} ({modes[region['mode']]['model_frequency_hz']:.4g} Hz)"
+        row = modes[region["mode"]]
+        return f"{mode_label(row)} ({row['model_frequency_hz']:.4g} Hz)"
     return f"{region.get('peak_hz') or sum(region['band_hz']) / 2:.4g} Hz"
 
 
@@ -461,16 +462,28 @@ def _modes_section(maps) -> str:
 
 
 def per_mode_table(maps) -> str:
-    """One row per mode of each map, the maps' rows of a mode next to each other."""
-    rows = sorted(((r["mode"], i, when, r) for i, (when, _, m) in enumerate(maps) for r in m.modes),
+    """One row per mode of each map, the maps' rows of a mode next to each other: the beam's modes
+    by number, an effect's own mode after the beam's modes below it."""
+    rows = sorted(((place, i, when, r) for i, (when, _, m) in enumerate(maps) for place, r in _placed(m.modes)),
                   key=lambda x: x[:2])
     head = ["mode", "map", "sensor", "model f [Hz]"] + [v[0] for v in MODE_COLUMNS.values()] + ["finding"]
-    return table(head, [_mode_cells(k, when, r) for k, _, when, r in rows],
-                 text_columns=(1, 2, len(head) - 2, len(head) - 1))
+    return table(head, [_mode_cells(when, r) for _, _, when, r in rows],
+                 text_columns=(0, 1, 2, len(head) - 2, len(head) - 1))
 
 
-def _mode_cells(k, when, row) -> list[str]:
-    cells = [str(k), when, esc(row["sensor"]), f"{row['model_frequency_hz']:.5g}"]
+def _placed(rows) -> list[tuple[float, dict]]:
+    """(place, row): k for the beam's mode k, k + 1/2 for an effect's own mode above beam mode k."""
+    out, k = [], 0
+    for row in rows:
+        own = not mode_label(row).startswith("mode ")
+        k += not own
+        out.append((k + 0.5 * own, row))
+    return out
+
+
+def _mode_cells(when, row) -> list[str]:
+    label = mode_label(row)
+    cells = [esc(label.removeprefix("mode ")), when, esc(row["sensor"]), f"{row['model_frequency_hz']:.5g}"]
     for stat, (_, key, sd_key, fmt) in MODE_COLUMNS.items():
         text = _decay(row) if key is None else _pm(row[key], row[sd_key], fmt)
         cells.append(flag(text, stat in row["flags"]))

@@ -12,10 +12,11 @@ STAND_IN = {"parameter": "P", "median": 104.2, "allowed": [-1.483, 1.483], "unit
             "why": "beyond the weight of beam, tip body and stated sensors"}
 
 
-def mode_row(mode, f, flags=(), frequency_error=0.0, damping_error=0.0, sensor="accel_tip") -> dict:
-    """A per-mode row of a mismatch map (checks.discrepancy): errors in % of the model's."""
-    return {"mode": mode, "model_frequency_hz": f, "sensor": sensor, "flags": list(flags),
-            "frequency_error_pct": frequency_error, "damping_error_pct": damping_error}
+def mode_row(mode, f, flags=(), frequency_error=0.0, damping_error=0.0, sensor="accel_tip", label=None) -> dict:
+    """A per-mode row of a mismatch map (checks.discrepancy): errors in % of the model's; ``label``
+    (default "mode <mode>") names it."""
+    return {"mode": mode, "label": label or f"mode {mode}", "model_frequency_hz": f, "sensor": sensor,
+            "flags": list(flags), "frequency_error_pct": frequency_error, "damping_error_pct": damping_error}
 
 
 def region(note, share, mode=None, peak=None, sensor="accel_tip", band=(80.0, 90.0)) -> dict:

@@ -264,7 +264,7 @@ RULES = {
                              "not decay (95% kept), but neither would the beam")], "electrical pickup"),
     "line_decaying": ([], [("residual line at 87 Hz, away from every model mode; it decays (9% kept over the "
                            "window)")], "a mode the model lacks"),
-    "band_top": ([], [("residual at 143.9 Hz, at model mode 3 (143.6 Hz) near the top of the band, where the "
+    "band_top": ([], [("residual at 143.9 Hz, at the model's mode 3 (143.6 Hz) near the top of the band, where the "
                       "per-mode statistics are not computed")], "--max-frequency"),
     "delay": ([], ["the measured response lags the model by 1.2 +- 0.1 ms at the excitation"], "timing offset"),
     "force": ([], ["the force-noise latent terms carry 3 x the variance the force channel's noise allows"],
@@ -292,6 +292,47 @@ def test_each_next_step_rule_names_its_cause_for_its_region(kind):
     assert steps == [expected[0].upper() + expected[1:]]
     assert cause in steps[0]
     assert set(RULES) == set(NEXT_STEPS)                       # every rule is tested here
+
+
+BODY = "the attached body's own mode"
+
+
+def test_a_next_step_names_the_beams_mode_by_its_number_beside_a_bodys_own_mode():
+    """The final model's second mode is the beam's first when a body's own mode lies below it: the
+    step names "mode 1 (6.6 Hz)", never the model's index; a flagged body mode is named as such."""
+    from bayesbeam.report.diagnosis import next_steps
+    from tests.report.summaries import mode_row, region, unexplained_summary
+
+    modes = [mode_row(1, 0.9, ["damping"], 0.0, 40.0, label=BODY), mode_row(2, 6.6, ["frequency"], 2.0),
+             mode_row(3, 41.0, ["frequency"], -1.0)]
+    modes[1]["label"], modes[2]["label"] = "mode 1", "mode 2"
+    steps = next_steps(unexplained_summary([region("finding", 0.5, mode=k) for k in (1, 2)], modes))
+    assert any(step.startswith(f"The damping of {BODY} (0.9 Hz)") for step in steps)
+    assert any("mode 1 (6.6 Hz)" in step for step in steps) and not any("mode 2 (6.6" in step for step in steps)
+
+
+def test_per_mode_table_puts_each_beam_mode_of_the_maps_together_and_a_bodys_mode_below_them():
+    """Rows of the baseline map (beam modes 1, 2) and the final map (body at 0.9 Hz, beam modes 1, 2):
+    the body's row first (below beam mode 1), then each beam mode's rows of both maps together."""
+    from types import SimpleNamespace
+
+    from bayesbeam.report.diagnosis import MODE_COLUMNS, per_mode_table
+    from bayesbeam.report.html import esc
+    from tests.report.summaries import mode_row
+
+    def full(row):
+        zeros = {k: 0.0 for _, key, sd, _ in MODE_COLUMNS.values() if key for k in (key, sd)}
+        return row | zeros | {"p_values": {"curvature": None}, "note": ""}
+
+    before = [full(mode_row(1, 6.5)), full(mode_row(2, 41.0))]
+    after = [full(mode_row(1, 0.9, label=BODY)), full(mode_row(2, 6.6)), full(mode_row(3, 41.2))]
+    after[1]["label"], after[2]["label"] = "mode 1", "mode 2"
+    rows = body_rows(per_mode_table([("before", None, SimpleNamespace(modes=before)),
+                                     ("after", None, SimpleNamespace(modes=after))]))
+    shown = [re.findall(r"<td[^>]*>([^<]*)</td>", r)[:4] for r in rows]
+    assert [cells[:2] for cells in shown] == [[esc(BODY), "after"], ["1", "before"], ["1", "after"],
+                                              ["2", "before"], ["2", "after"]]
+    assert [cells[3] for cells in shown] == ["0.9", "6.5", "6.6", "41", "41.2"]
 
 
 def test_no_next_steps_when_nothing_is_unexplained():

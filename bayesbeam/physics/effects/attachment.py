@@ -81,6 +81,7 @@ class Attachment(Effect):
                    "damping ratio zeta_a (k_a = m_a (2 pi f_a)^2, c_a = 2 zeta_a m_a 2 pi f_a)")
     extends = True
     place = "x_a"
+    own_mode = "the attached body's own mode"
 
     def bind(self, recording) -> Attachment:
         """The effect for ``recording``: absent at f_a = ABSENT_RATIO f_1, the body at the tip."""

@@ -49,6 +49,9 @@ class Effect(Component):
     #: parameter values at which the effect vanishes (the optimiser's global search starts there:
     #: an effect's prior median, such as a tension of several buckling loads, is no neutral guess)
     absent: ClassVar[dict[str, float]] = {}
+    #: words for a mode the effect's own mass carries (an attached body's, a base's), or "" when it
+    #: brings none (:meth:`bayesbeam.model.BeamModel.mode_labels` numbers the beam's modes without it)
+    own_mode: str = ""
 
     def mass(self, ops: BeamOperators, values, setup: Setup) -> np.ndarray | None:
         """Added mass matrix (kg in generalised coordinates), or None."""

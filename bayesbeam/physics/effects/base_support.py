@@ -101,6 +101,7 @@ class BaseSupport(Effect):
     description = ("the clamp on a translating base: mass m_b on a spring and dashpot, natural frequency f_b, "
                    "damping ratio zeta_b (k_b = m_b (2 pi f_b)^2, c_b = 2 zeta_b m_b 2 pi f_b)")
     root = "sliding"
+    own_mode = "the base's own mode"
 
     def bind(self, recording) -> BaseSupport:
         """The effect for ``recording``: absent at f_b = ABSENT_RATIO f_1, m_b = ABSENT_MASS rho A l."""

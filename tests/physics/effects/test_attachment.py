@@ -81,6 +81,19 @@ def test_the_body_adds_its_own_mode_and_lowers_the_modes_below_it_raises_those_a
     assert np.all(loaded[3:] >= bare[2:5])
 
 
+@pytest.mark.parametrize("kappa, body_index", [(KAPPA, 2), (MU_A * 0.5**4, 0)])
+def test_the_bodys_own_mode_is_named_and_the_beams_modes_numbered_without_it(kappa, body_index):
+    """The mode the body's mass carries (alone at b_a = 6, between beam modes 2 and 3; at b_a = 0.5,
+    below mode 1) is named as the body's; the beam's modes keep their numbers 1, 2, 3, ... as
+    without the body (m_a = 0: every mode the beam's)."""
+    v = {"EI": PAPER_EI, "gamma": 0.0, **body(kappa=kappa)}
+    labels = model().mode_labels(v)[:6]
+    expected = [f"mode {k}" for k in range(1, 6)]
+    expected.insert(body_index, "the attached body's own mode")
+    assert labels == expected
+    assert model().mode_labels({**v, "m_a": 0.0})[:6] == [f"mode {k}" for k in range(1, 7)]
+
+
 def test_damped_poles_match_the_exact_equation():
     """Poles with a lossy link (damping ratio 5 % of the body alone): each of the first 5 found by
     the secant method on the exact equation from the Galerkin pole. Frequencies within 3e-4 (as

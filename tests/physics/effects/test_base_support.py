@@ -196,6 +196,16 @@ def model_values(**extra) -> dict:
     return {"EI": PAPER_EI, "gamma": 0.02, "cdI": 2e-5, "f_b": 30.0, "m_b": 1.5, "zeta_b": 0.05, **extra}
 
 
+def test_a_heavy_bases_own_mode_is_named_and_the_beams_modes_numbered_without_it():
+    """A 1.5 kg base (1.5 x the beam) at 30 Hz, between the clamped beam's modes 2 and 3 (23 and
+    65 Hz), carries the mode near 30 Hz: named as the base's, the beam's modes numbered 1, 2, 3, ...
+    around it. A base far stiffer than the band (f_b 1e5 Hz) owns none of the first six."""
+    model = BeamModel(recording(), "q1", 16, effects="base_support", degree=5)
+    labels = model.mode_labels(model_values())[:6]
+    assert labels == ["mode 1", "mode 2", "the base's own mode", "mode 3", "mode 4", "mode 5"]
+    assert model.mode_labels(model_values(f_b=1e5))[:6] == [f"mode {k}" for k in range(1, 7)]
+
+
 @pytest.mark.parametrize("effects, root", [("base_support", "sliding"), ("base_support+root_compliance", "free")])
 def test_model_takes_the_root_from_its_effects_and_matches_the_exact_frequencies(effects, root):
     """Through BeamModel: the root condition follows the effects, and (root_compliance stiff enough
