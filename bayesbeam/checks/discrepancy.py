@@ -542,8 +542,8 @@ def _mode_note(row) -> str:
 
 
 def mode_label(row) -> str:
-    """A per-mode row's name ('mode 2', "the attached body's own mode"); a row written before rows
-    carried their label is named by its index."""
+    """A per-mode row's name ('mode 2', "the attached body's own mode"); a row without a label
+    (a diagnosis.json that does not store one) is named by its index."""
     return row.get("label") or f"mode {row['mode']}"
 
 
@@ -727,7 +727,8 @@ def _line_note(f_line, c, lik, s: Setting, params) -> str:
     near = int(np.argmin(np.abs(f - f_line)))
     if abs(f[near] - f_line) <= max(MODE_TOLERANCE * f[near], 2 * proj.fs / proj.block):
         # a mode above 0.9 of the band's top is fitted but has no per-mode statistics
-        return (f"residual at {f_line:.4g} Hz, at the model's {lik.model.mode_labels(params)[near]} ({f[near]:.4g} Hz) near the top of the "
+        label = lik.model.mode_labels(params)[near]
+        return (f"residual at {f_line:.4g} Hz, at the model's {label} ({f[near]:.4g} Hz) near the top of the "
                 f"band, where the per-mode statistics are not computed: that mode's misfit")
     zeta = np.interp(f_line, f, lik.model.modal_damping_ratios(params))
     beam = float(np.exp(-2 * np.pi * f_line * zeta * 2 / 3 * (proj.i1 - proj.i0) / proj.fs))
