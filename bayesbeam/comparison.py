@@ -130,6 +130,12 @@ def optimise_job(args):
     return choose_discretisation(rec, model, config.fit, np.random.default_rng(seed), start=start)
 
 
+def polish_job(args):
+    """Job 1, local: :func:`optimise_job` from its start alone, without the global search."""
+    rec, model, config, seed, start = args
+    return choose_discretisation(rec, model, config.fit, np.random.default_rng(seed), start=start, search=False)
+
+
 def smc_job(args):
     """Job 2: one SMC run of one model's posterior."""
     posterior, reference, seed, particles, min_moved = args

@@ -77,9 +77,9 @@ from bayesbeam.comparison import (
     expand_model_sets,
     left_out_words,
     material_left_out,
-    optimise_job,
     optimise_models,
     optimum_log_likelihood,
+    polish_job,
     posterior_summary,
 )
 from bayesbeam.comparison import summarise as summarise_comparison
@@ -739,7 +739,8 @@ def _optimised(rec, specs: list, starts: dict, hosted: dict, config: DiagnoseCon
     candidates' models ``specs`` (from ``starts`` as well, where given) and of the models of
     ``hosted`` (:func:`_hosted`, each from its start), all in one parallel wave; then, where a
     host's optimum trails the best host of its effect (:func:`cross_starts`), that host again
-    from the best host's values: the higher optimum is kept.
+    from the best host's values, by local optimisations alone (its global search has run):
+    the higher optimum is kept.
 
     The hosts share EI, gamma and the effect's parameters, and on a long record the friction
     likelihood has many sharp modes (along F_c alone, the others held, local maxima a few tenths
@@ -757,7 +758,7 @@ def _optimised(rec, specs: list, starts: dict, hosted: dict, config: DiagnoseCon
     again = cross_starts({s: effect for s, (effect, _) in hosted.items()}, {s: _at_optimum(optima[s]) for s in hosted})
     seeds = np.random.SeedSequence([config.compare.seed, len(models)]).generate_state(len(again))
     jobs = [(rec, s, config.compare, int(seed), start) for seed, (s, (start, _, _)) in zip(seeds, again.items())]
-    for (spec, (_, source, behind)), redone in zip(again.items(), executor.map(optimise_job, jobs)):
+    for (spec, (_, source, behind)), redone in zip(again.items(), executor.map(polish_job, jobs)):
         if redone[1].log_posterior > optima[spec][1].log_posterior:
             optima[spec] = redone
         now = _at_optimum(optima[spec])[1] - _at_optimum(optima[source])[1]

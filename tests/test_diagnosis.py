@@ -376,10 +376,11 @@ def test_the_recheck_does_not_refit_a_host_left_unsampled_below_the_current_mode
 
 
 def test_hosts_are_optimised_again_from_the_best_hosts_values_and_the_higher_optimum_kept(monkeypatch):
-    """_optimised with optimise_job replaced: the candidate and each host are optimised in one wave
-    from their own starts, then the host trailing by more than DECISIVE again from the best host's
-    values, and the better of its two optima is kept (q1's second optimum, 2 nats below air's,
-    here; a worse second one is not). The candidate is never optimised again."""
+    """_optimised with optimise_job and polish_job replaced: the candidate and each host are
+    optimised in one wave from their own starts (global searches), then the host trailing by more
+    than DECISIVE again from the best host's values by a local optimisation alone, and the better
+    of its two optima is kept (q1's second optimum, 2 nats below air's, here; a worse second one
+    is not). The candidate is never optimised again."""
     import bayesbeam.comparison as cmp
     import bayesbeam.diagnosis as dg
 
@@ -387,23 +388,23 @@ def test_hosts_are_optimised_again_from_the_best_hosts_values_and_the_higher_opt
              ("q2+root_compliance", "own"): 10.0}
     calls = []
 
-    def fake_optimise(args):
+    def fake_optimise(args, local=False):
         _rec, spec, _config, _seed, start = args
         origin = (start or {}).get("origin", "own")
-        calls.append((spec, origin))
+        calls.append((spec, origin, "local" if local else "global"))
         value = log_l.get((spec, origin), second)
         post = SimpleNamespace(split=lambda theta: ({"EI": 44.0, "F_c": theta[0], "origin": spec}, {}),
                                log_prior=lambda theta: 0.0)
         return SimpleNamespace(posterior=post), SimpleNamespace(theta=[value], log_posterior=value), {}
 
-    monkeypatch.setattr(dg, "optimise_job", fake_optimise)
     monkeypatch.setattr(cmp, "optimise_job", fake_optimise)
+    monkeypatch.setattr(dg, "polish_job", lambda args: fake_optimise(args, local=True))
     hosted = {"air+dry_friction": ("dry_friction", {}), "q1+dry_friction": ("dry_friction", {})}
     for second, kept in ((98.0, 98.0), (40.0, 50.0)):
         calls.clear()
         optima = dg._optimised(None, ["q2+root_compliance"], {}, hosted, dg.DiagnoseConfig(), None, None)
-        assert calls == [("q2+root_compliance", "own"), ("air+dry_friction", "own"), ("q1+dry_friction", "own"),
-                         ("q1+dry_friction", "air+dry_friction")]
+        assert calls == [("q2+root_compliance", "own", "global"), ("air+dry_friction", "own", "global"),
+                         ("q1+dry_friction", "own", "global"), ("q1+dry_friction", "air+dry_friction", "local")]
         assert optima["q1+dry_friction"][1].log_posterior == kept and optima["air+dry_friction"][1].log_posterior == 100.0
         assert optima["q2+root_compliance"][1].log_posterior == 10.0
 

@@ -306,7 +306,8 @@ def _pool_for(pool, posterior):
     return pool
 
 
-def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: dict | None = None):
+def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: dict | None = None,
+                          search: bool = True):
     """(problem, optimum, record) at the N the data need; see :data:`SHIFT_TOLERANCE`.
 
     ``start`` (parameter values by name, e.g. a nested model's optimum extended by an effect's
@@ -314,7 +315,8 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     re-determined by the global search's EI search with every other parameter held there
     (:func:`~bayesbeam.inference.sampler.rescan_ei`: the start's EI is the other model's, and
     can sit in the wrong basin of EI's trade-off with the start's effect); the highest optimum
-    is kept.
+    is kept. ``search`` False (with a ``start``) leaves the global search out: the local
+    optimisations alone, for a model whose global search has already run.
 
     The global search runs at the coarsest N that places every in-band mode
     (:func:`starting_rung`). The optimum at N is compared with the optimum at the next finer N, estimated by one Newton
@@ -327,10 +329,12 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     """
     ladder = N_LADDERS[config.degree]
     problem = prepare(rec, model, config, config.n_intervals or starting_rung(rec, model, config, log))
-    optimum = find_optimum(problem.posterior, rng, log=log)
+    if not (search or start):
+        raise ValueError("choose_discretisation: a local optimisation alone (search=False) needs a start")
+    optimum = find_optimum(problem.posterior, rng, log=log) if search else None
     for point in local_starts(problem.posterior, start):
         local = find_optimum(problem.posterior, rng, start=point, log=log)
-        optimum = local if local.log_posterior > optimum.log_posterior else optimum
+        optimum = local if optimum is None or local.log_posterior > optimum.log_posterior else optimum
     while True:
         n = problem.model.n_intervals
         finer_n = ladder[ladder.index(n) + 1] if n in ladder[:-1] else int(1.5 * n)

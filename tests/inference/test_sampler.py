@@ -2,6 +2,7 @@
 it starts on the N ladder, its polish, the EI rescan of a given start (``fit.local_starts``), and
 the Laplace covariance at a constraint; and what ``run_emcee`` tells its user while it runs and
 when it stops unconverged."""
+import importlib
 import io
 from pathlib import Path
 
@@ -93,6 +94,32 @@ def test_a_start_from_a_nested_optimum_gets_its_EI_rescanned():
     x_true = np.array([p.to_coordinate(truth[n]) for p, n in zip(post.priors[:k], post.model_names)])
     z = (best.theta[:k] - x_true) / np.sqrt(np.diag(best.covariance)[:k])
     assert np.all(np.abs(z) < 4), dict(zip(post.model_names, np.round(z, 2)))
+
+
+def test_a_choice_of_discretisation_from_a_start_alone_runs_no_global_search(monkeypatch, air_case):
+    """choose_discretisation(search=False), as comparison.polish_job runs it: every optimisation
+    starts from the start (the EI rescan's and the ladder's polishes), none is a global search;
+    without a start it refuses."""
+    from bayesbeam.comparison import CompareConfig, polish_job
+
+    fit = importlib.import_module("bayesbeam.inference.fit")     # the package's `fit` names the function
+    starts, real = [], fit.find_optimum
+
+    def spy(post, rng, **options):
+        starts.append(options.get("start"))
+        return real(post, rng, **options)
+
+    monkeypatch.setattr(fit, "find_optimum", spy)
+    rec, _ = air_case
+    config = FitConfig(n_intervals=6)
+    start = {"EI": cases.EI_TRUE, "gamma": cases.TRUTH["air"]["gamma"]}
+    polish_job((rec, "air", CompareConfig(config), 1, start))
+    assert starts and all(s is not None for s in starts)
+    starts.clear()
+    fit.choose_discretisation(rec, "air", config, np.random.default_rng(1), start=start)
+    assert starts[0] is None                             # the default: the global search first
+    with pytest.raises(ValueError, match="needs a start"):
+        fit.choose_discretisation(rec, "air", config, np.random.default_rng(1), search=False)
 
 
 class GaussianPosterior:
