@@ -326,6 +326,12 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     ``config.n_intervals`` set, that N is used and the check is still recorded, so a user can
     see whether the fixed N is adequate; at the top of the ladder a failed check is reported as
     such (``passed: false``), never hidden.
+
+    The climb also stops, failed and marked ``stalled``, when a rung's shift is no smaller than
+    the rung's below: spline error shrinks as N grows (as N^-6 and faster for a quintic's
+    frequencies), so a shift that does not is not the discretisation's. A likelihood with many
+    sharp local maxima (stick-slip friction on a long record) moves its optimum by a few tenths
+    of an sd at every rung, and climbing would only make every later evaluation dearer.
     """
     ladder = N_LADDERS[config.degree]
     problem = prepare(rec, model, config, config.n_intervals or starting_rung(rec, model, config, log))
@@ -335,13 +341,16 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     for point in local_starts(problem.posterior, start):
         local = find_optimum(problem.posterior, rng, start=point, log=log)
         optimum = local if optimum is None or local.log_posterior > optimum.log_posterior else optimum
+    below = np.inf
     while True:
         n = problem.model.n_intervals
         finer_n = ladder[ladder.index(n) + 1] if n in ladder[:-1] else int(1.5 * n)
         finer = prepare(rec, model, config, finer_n)
         record, moved = _refinement_check(problem, finer, optimum, config, log)
-        if record["passed"] or config.n_intervals or finer_n > ladder[-1]:
+        record["stalled"] = not record["passed"] and record["max_shift_sd"] >= below
+        if record["passed"] or config.n_intervals or finer_n > ladder[-1] or record["stalled"]:
             break
+        below = record["max_shift_sd"]
         theta = optimum.theta + np.where(np.isfinite(moved), moved, 0.0)
         # a failed check can mean a long Newton step: keep it only where the finer model is better
         if not finer.posterior(theta) > finer.posterior(optimum.theta):

@@ -117,7 +117,13 @@ def _caveats(summary) -> list[str]:
         out.append(f"The estimates of {', '.join(unconverged)} are not settled: independent runs of the sampler "
                    f"disagree. Rerun with more --particles or --repeats before quoting them closely "
                    f"(details under Convergence).")
-    coarse = [m for m in summary["ranking"] if not models[m]["discretisation_check"]["passed"]]
+    checks = {m: models[m]["discretisation_check"] for m in summary["ranking"]}
+    rough = [m for m, c in checks.items() if c.get("stalled")]
+    if rough:
+        out.append(f"The optima of {', '.join(rough)} move by about as much at each finer beam model as at the "
+                   f"one before: not the discretisation's error, which shrinks as the model is refined, but a "
+                   f"likelihood with many sharp local maxima; their N was kept (details under Convergence).")
+    coarse = [m for m, c in checks.items() if not c["passed"] and not c.get("stalled")]
     if coarse:
         out.append(f"The estimates of {', '.join(coarse)} still move when the beam model is made finer: their "
                    f"last digits depend on the model's resolution; fix a finer one with --n-intervals to check "
@@ -434,8 +440,14 @@ def _discretisation_table(summary) -> str:
         name = max(d["shift_sd"], key=d["shift_sd"].get)
         rows.append([esc(m), str(d["n_intervals"]) + (" (chosen)" if d["automatic"] else " (given)"),
                      str(d["refined_n_intervals"]), f"{d['max_shift_sd']:.3g} ({esc(name)})",
-                     str(d["tolerance_sd"]), flag("passed" if d["passed"] else "failed", not d["passed"])])
+                     str(d["tolerance_sd"]), flag(_check_word(d), not d["passed"])])
     return table(["model", "N", "finer N", "largest shift [sd]", "tolerance [sd]", "check"], rows)
+
+
+def _check_word(check: dict) -> str:
+    if check["passed"]:
+        return "passed"
+    return "failed: stalled (the shift does not shrink with N)" if check.get("stalled") else "failed"
 
 
 # ---------------------------------------------------------------------------- markdown

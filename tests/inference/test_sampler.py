@@ -122,6 +122,50 @@ def test_a_choice_of_discretisation_from_a_start_alone_runs_no_global_search(mon
         fit.choose_discretisation(rec, "air", config, np.random.default_rng(1), search=False)
 
 
+@pytest.mark.parametrize("shifts, last_n, stalled", [
+    ((0.3, 0.2, 0.25, 0.1), 16, True),           # 12 -> 16 moves no less than 8 -> 12: roughness
+    ((0.3, 0.2, 0.15, 0.12, 0.11), 32, False),   # shrinking: climbs to the ladder's top
+    ((0.3, 0.05), 12, False),                    # passes at 12
+])
+def test_the_ladder_stops_where_the_shift_stops_shrinking(monkeypatch, shifts, last_n, stalled):
+    """choose_discretisation with the quintic ladder (8, 12, ...) and each rung's check's largest
+    shift scripted: it climbs while the check fails and the shift shrinks, and stops, ``stalled``,
+    at the first rung whose shift is no smaller than the rung's below."""
+    from types import SimpleNamespace
+
+    fit = importlib.import_module("bayesbeam.inference.fit")
+    script = dict(zip(N_LADDERS[5], shifts))
+
+    def problem(n):
+        return SimpleNamespace(model=SimpleNamespace(n_intervals=n, degree=5), posterior=_FlatPosterior())
+
+    def check(coarse, finer, optimum, config, log=None):
+        shift = script[coarse.model.n_intervals]
+        return {"n_intervals": coarse.model.n_intervals, "max_shift_sd": shift,
+                "passed": shift < fit.SHIFT_TOLERANCE}, np.zeros(1)
+
+    optimum = SimpleNamespace(theta=np.zeros(1), covariance=np.eye(1), log_posterior=0.0)
+    monkeypatch.setattr(fit, "prepare", lambda rec, model, config, n: problem(n))
+    monkeypatch.setattr(fit, "starting_rung", lambda *args: 8)
+    monkeypatch.setattr(fit, "find_optimum", lambda *args, **options: optimum)
+    monkeypatch.setattr(fit, "_refinement_check", check)
+    chosen, _, record = fit.choose_discretisation(None, "q1", FitConfig(), np.random.default_rng(1))
+    assert chosen.model.n_intervals == record["n_intervals"] == last_n
+    assert record["stalled"] is stalled
+
+
+class _FlatPosterior:
+    """A one-parameter posterior, flat: what choose_discretisation asks of a problem's posterior."""
+
+    model_names = ("EI",)
+
+    def __call__(self, theta):
+        return 0.0
+
+    def split(self, theta):
+        return {"EI": theta[0]}, {}
+
+
 class GaussianPosterior:
     """A stand-in log posterior: a correlated Gaussian (mean, cov) in three coordinates with
     uniform priors on [-10, 10], -inf below ``floor`` in the first coordinate (a constraint inside

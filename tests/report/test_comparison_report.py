@@ -130,6 +130,23 @@ def test_caveats_say_what_to_doubt_and_do_in_plain_words(report):
         assert "R-hat" not in caveat and " sd" not in caveat and "Convergence" in caveat
 
 
+def test_a_stalled_discretisation_check_is_read_as_roughness_not_resolution(report):
+    """A failed check marked ``stalled`` (the shift did not shrink up the ladder) gets its own
+    caveat, the likelihood's roughness, not the advice to refine; the Convergence table says so."""
+    import copy
+
+    from bayesbeam.report.comparison import _discretisation_table, _verdict_section
+
+    _, _, summary = report
+    best = summary["best"]
+    rough = copy.deepcopy(summary)
+    rough["models"][best]["discretisation_check"].update(passed=False, max_shift_sd=0.3, stalled=True)
+    items = re.findall(r"<li>(.*?)</li>", _verdict_section(rough))
+    assert [c for c in items if "sharp local maxima" in c and best in c]
+    assert not [c for c in items if "--n-intervals" in c and best in c]
+    assert "stalled" in _discretisation_table(rough)
+
+
 def test_a_model_is_described_by_its_mechanisms_and_effects():
     """Mechanisms joined by '+', effects after 'with'; a model of effects alone by its effects."""
     from bayesbeam.comparison import described
