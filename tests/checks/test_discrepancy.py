@@ -216,11 +216,11 @@ def test_an_attached_bodys_own_mode_is_named_in_the_map_and_the_beams_modes_keep
     the beam's rows their numbers without it, also in the notes (the per-mode statistics are the
     same estimators as for any mode)."""
     post, draws, _ = fitted("null")
-    beam = post.split(np.median(draws, axis=0))[0]
+    beam, noise = post.split(np.median(draws, axis=0))
     rec = recording("null")
     body = {"f_a": 30.0, "m_a": 0.01 * rec.beam.rho_a * rec.beam.length, "zeta_a": 0.05, "x_a": 0.9 * rec.beam.length}
     with_body = prepare(rec, "q1", dataclasses.replace(FIT, effects=("attachment",)), N_INTERVALS).posterior
-    centre = with_body.coordinates({**beam, **body, **post.split(np.median(draws, axis=0))[1]})
+    centre = with_body.coordinates({**beam, **body, **noise})
     spread = 1e-9 * np.random.default_rng(3).standard_normal((len(draws), len(centre)))
     mis = locate(with_body, centre + spread, np.random.default_rng(2), REPLICATES)
     labels = [row["label"] for row in mis.modes]
