@@ -45,9 +45,9 @@ SLOWEST_FIRST = (                                     # default  long
     "tests/checks/test_signatures.py",                # 205 s     -
     "tests/test_python_docs.py",                      # 190 s     -
     "tests/acceptance/test_diagnose.py",              #  40 s    265 s
+    "tests/test_diagnosis.py",                        #  15 s    245 s
     "tests/acceptance/test_calibration.py",           #  <1 s    170 s
     "tests/acceptance/test_literature.py",            #   -      160 s
-    "tests/test_diagnosis.py",                        # 140 s     65 s
     "tests/studies/test_first_run.py",                # 130 s     -
     "tests/test_resume.py",                           #  80 s     -
     "tests/inference/test_evidence.py",               #  60 s     80 s

@@ -25,6 +25,7 @@ RMS_TOLERANCE = 0.1
 
 
 @pytest.mark.slow
+@pytest.mark.long   # 95 s; the default run's diagnoses are tests/acceptance/test_diagnose.py's nulls
 def test_a_free_decay_is_diagnosed_without_an_excitation_time():
     """The reference's q1 hammer test with a tension raising mode 1 by 2 % (P = 4.77 N), cut to a
     free decay from 0.1 s (no force: no phase features, each model's initial state fitted). The
@@ -44,6 +45,7 @@ def test_a_free_decay_is_diagnosed_without_an_excitation_time():
 
 
 @pytest.mark.slow
+@pytest.mark.long   # 85 s; the map locating a line (default run): tests/checks/test_discrepancy.py
 def test_a_residual_no_effect_explains_is_reported_unexplained_with_its_band():
     """A decaying 80 Hz line between modes 3 and 4 (a mode the beam model does not have), 15 % of
     the signal's RMS, added to the reference's q1 recording. The screen's leading candidate, the
