@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from bayesbeam.checkpoint import NOTHING_SAVED
 from bayesbeam.checks.ppc import N_REPLICATES, PASS_P_VALUE, mode_table, posterior_predictive_check
 from bayesbeam.executors import SerialExecutor
 from bayesbeam.inference.evidence import combine_runs, laplace_reference, matched_reference, smc
@@ -176,7 +177,7 @@ def expand_model_sets(names) -> list[str]:
 
 def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, executor=None,
             log=None, starts: dict | None = None, rivals: dict | None = None,
-            optimised: dict | None = None) -> tuple[dict, dict]:
+            optimised: dict | None = None, checkpoint=NOTHING_SAVED) -> tuple[dict, dict]:
     """Compare ``models`` (names, or named sets of :data:`MODEL_SETS`) on ``rec``: ``(results, summary)``.
 
     ``results`` maps each model to its :class:`ModelResult`; ``summary`` is the JSON-ready
@@ -186,7 +187,8 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     :func:`~bayesbeam.inference.fit.choose_discretisation`). ``rivals``: model -> Evidence of
     models fitted before, not refitted and not in the results, that may lead when :func:`beaten`
     decides which repeats to skip. ``optimised``: model -> what :func:`optimise_job` returned for
-    it (with this ``config``), not optimised again.
+    it (with this ``config``), not optimised again. ``checkpoint``: where each SMC run is saved
+    as it finishes and read back from on a resumed run (:meth:`bayesbeam.checkpoint.Checkpoint.map`).
     """
     config = config or CompareConfig()
     executor = executor or SerialExecutor()
@@ -206,8 +208,9 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
                                                                                 optimum.covariance), 0)
                                         for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))},
                                        config, seeds[1], executor, rivals or {}, progress,
-                                       _ceilings(posteriors, stage1), bar)
-    evidences = settle(evidences, posteriors, config, seeds[1], executor, progress, skip=set(stopped))
+                                       _ceilings(posteriors, stage1), bar, checkpoint)
+    evidences = settle(evidences, posteriors, config, seeds[1], executor, progress, skip=set(stopped),
+                       checkpoint=checkpoint)
     with progress.stage("predictive checks", len(models), "model") as bar:
         checks = executor.map(check_job, [(posteriors[m], evidences[m].samples.reshape(-1, posteriors[m].ndim),
                                            _seed(seeds[2], i), config.replicates) for i, m in enumerate(models)],
@@ -257,7 +260,7 @@ def left_out_words(left_out: dict) -> str:
 
 
 def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict | None = None,
-              say=None, ceilings: dict | None = None, bar=None) -> tuple[dict, dict]:
+              say=None, ceilings: dict | None = None, bar=None, checkpoint=NOTHING_SAVED) -> tuple[dict, dict]:
     """(Evidence per model, why each stopped model was stopped): ``config.repeats`` SMC runs per
     model, combined. ``jobs`` maps a model to (its index, its posterior, the reference, a seed
     offset); a run's seed is ``(index * 1000 + offset + repeat)``, so a repeat's run is the same
@@ -271,7 +274,7 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
     first = FIRST_WAVE if early else config.repeats
     favourite = max(jobs, key=lambda m: ceilings.get(m, -np.inf)) if early and ceilings else None
     runs = _runs(jobs, {m: range(config.repeats if m == favourite else first) for m in jobs},
-                 config, seeds, executor, bar)
+                 config, seeds, executor, bar, checkpoint)
     stopped = {}
     if early:
         # the highest log likelihood seen, at the optimum or on any particle: an optimum left in a
@@ -286,7 +289,7 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
         left = {m: range(len(runs[m]), config.repeats) for m in jobs if m not in stopped}
         if bar is not None:
             bar.retotal(bar.done + sum(len(r) for r in left.values()))
-        more = _runs(jobs, left, config, seeds, executor, bar)
+        more = _runs(jobs, left, config, seeds, executor, bar, checkpoint)
         runs = {m: r + more.get(m, []) for m, r in runs.items()}
     return {m: combine_runs(r) for m, r in runs.items()}, stopped
 
@@ -302,18 +305,29 @@ def optimum_log_likelihood(posterior, optimum) -> float:
     return optimum.log_posterior - posterior.log_prior(optimum.theta)
 
 
-def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor, bar=None) -> dict:
+def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor, bar=None,
+          checkpoint=NOTHING_SAVED) -> dict:
     """The SMC runs of each model's ``repeats`` (model -> repeat indices) for the models of
-    ``jobs`` (see :func:`_evidence`), those of the model with the most first."""
-    args, owners = [], []
+    ``jobs`` (see :func:`_evidence`), those of the model with the most first; each a step of
+    ``checkpoint`` named by the model, its seed, the particles and the reference density."""
+    args, owners, inputs = [], [], []
     for m in sorted(repeats, key=lambda m: -len(repeats[m])):
         i, post, reference, offset = jobs[m]
         particles = config.particles or max(128, 32 * post.ndim)
         for r in repeats[m]:
             args.append((post, reference, _seed(seeds, i * 1000 + offset + r), particles, config.min_moved))
             owners.append(m)
-    runs = executor.map(smc_job, args, bar=bar) if args else []
+            inputs.append({"model": m, "seed": args[-1][2], "particles": particles, "min_moved": config.min_moved,
+                           "reference": _reference_key(reference)})
+    runs = checkpoint.map(executor, smc_job, args, inputs, bar=bar) if args else []
     return {m: [run for run, o in zip(runs, owners) if o == m] for m in repeats}
+
+
+def _reference_key(reference) -> dict:
+    """What tells one SMC reference density from another (:class:`~bayesbeam.inference.evidence.Reference`)."""
+    tight = reference.tight.any()
+    return {"tight": reference.tight, "bands": {str(i): band for i, band in reference.bands.items()},
+            "df": reference.df, "mean": reference.mean if tight else None, "chol": reference.chol if tight else None}
 
 
 def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilings: dict | None = None) -> dict:
@@ -363,7 +377,8 @@ def ceiling_gap(top, ceiling: float) -> float:
     return _floor(top) - 3 * top.log_z_sd - ceiling
 
 
-def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, log, skip=()) -> dict:
+def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, executor, log, skip=(),
+           checkpoint=NOTHING_SAVED) -> dict:
     """A second evidence pass for every model (but those of ``skip``, stopped as beaten) whose
     repeats spread by more than :data:`EVIDENCE_SD_MAX`, from a reference fitted to its first
     pass's posterior particles (:func:`~bayesbeam.inference.evidence.matched_reference`; why
@@ -378,7 +393,7 @@ def settle(evidences: dict, posteriors: dict, config: CompareConfig, seeds, exec
     index = {m: i for i, m in enumerate(evidences)}
     with progress.stage("evidence, second pass", len(retry) * config.repeats, "run") as bar:
         second, _ = _evidence({m: (index[m], posteriors[m], matched_reference(posteriors[m].priors, evidences[m]), 500)
-                               for m in retry}, config, seeds, executor, bar=bar)
+                               for m in retry}, config, seeds, executor, bar=bar, checkpoint=checkpoint)
     return {m: replace(second[m], first_pass=e) if m in second else e for m, e in evidences.items()}
 
 

@@ -1,8 +1,10 @@
 """Where independent jobs run: this process, local worker processes, MPI ranks or a Dask cluster.
 
 ``get_executor(None | "local" | "serial" | "mpi" | "tcp://host:8786", processes)`` returns an
-object with ``map(fn, *iterables, bar=None) -> list`` (results in order; ``bar``, a
-:class:`bayesbeam.progress.Bar`, advances as each job finishes, in whatever order) and ``close()``. Jobs must be module-level
+object with ``map(fn, *iterables, bar=None, done=None) -> list`` (results in order; ``bar``, a
+:class:`bayesbeam.progress.Bar`, advances as each job finishes, in whatever order, and
+``done(index, result)`` is called then, in this process: a checkpoint saves the result there) and
+``close()``. Jobs must be module-level
 functions of picklable arguments. Local processes are spawned (not forked), so a job sees a fresh
 interpreter and BLAS is limited to one thread per worker (two workers on two cores, not two
 workers each starting two BLAS threads). A local worker exits when the process that started it
@@ -28,11 +30,11 @@ class SerialExecutor:
 
     workers = 1
 
-    def map(self, fn, *iterables, bar=None) -> list:
+    def map(self, fn, *iterables, bar=None, done=None) -> list:
         results = []
-        for args in zip(*iterables):
+        for i, args in enumerate(zip(*iterables)):
             results.append(fn(*args))
-            _advance(bar)
+            _finished(i, results[-1], bar, done)
         return results
 
     def close(self) -> None:
@@ -53,24 +55,28 @@ class LocalExecutor:
         self._pool = ProcessPoolExecutor(processes, mp_context=mp.get_context("spawn"),
                                          initializer=_exit_with_parent, initargs=(os.getpid(),))
 
-    def map(self, fn, *iterables, bar=None) -> list:
-        return _gather([self._pool.submit(fn, *args) for args in zip(*iterables)], futures_as_completed, bar)
+    def map(self, fn, *iterables, bar=None, done=None) -> list:
+        return _gather([self._pool.submit(fn, *args) for args in zip(*iterables)], futures_as_completed, bar, done)
 
     def close(self) -> None:
         self._pool.shutdown()
 
 
-def _advance(bar) -> None:
+def _finished(index: int, result, bar, done) -> None:
+    """Job ``index`` has finished with ``result``: tell ``done``, advance ``bar``."""
+    if done is not None:
+        done(index, result)
     if bar is not None:
         bar.advance()
 
 
-def _gather(futures: list, completed, bar) -> list:
-    """The futures' results in order, ``bar`` advanced as each finishes (``completed``: the
+def _gather(futures: list, completed, bar, done=None) -> list:
+    """The futures' results in order, :func:`_finished` as each finishes (``completed``: the
     library's as_completed)."""
-    if bar is not None:
-        for _ in completed(futures):
-            bar.advance()
+    if bar is not None or done is not None:
+        index = {f: i for i, f in enumerate(futures)}
+        for future in completed(futures):
+            _finished(index[future], future.result(), bar, done)
     return [f.result() for f in futures]
 
 
@@ -99,10 +105,10 @@ class DaskExecutor:
         self.client = Client(address) if self._own else address
         self.workers = max(1, sum(self.client.nthreads().values()))
 
-    def map(self, fn, *iterables, bar=None) -> list:
+    def map(self, fn, *iterables, bar=None, done=None) -> list:
         from distributed import as_completed
 
-        return _gather(self.client.map(fn, *iterables, pure=False), as_completed, bar)
+        return _gather(self.client.map(fn, *iterables, pure=False), as_completed, bar, done)
 
     def close(self) -> None:
         if self._own:
@@ -115,8 +121,8 @@ class MPIExecutor:
     def __init__(self):
         self._pool = mpi_pool_class()()
 
-    def map(self, fn, *iterables, bar=None) -> list:
-        return _gather([self._pool.submit(fn, *args) for args in zip(*iterables)], futures_as_completed, bar)
+    def map(self, fn, *iterables, bar=None, done=None) -> list:
+        return _gather([self._pool.submit(fn, *args) for args in zip(*iterables)], futures_as_completed, bar, done)
 
     def close(self) -> None:
         self._pool.shutdown()

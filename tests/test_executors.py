@@ -52,6 +52,27 @@ def test_a_bar_advances_once_per_finished_job(processes):
     assert "squares" in out.getvalue() and "7/7" in out.getvalue()
 
 
+@pytest.mark.parametrize("processes", [1, 2])
+def test_done_hears_of_each_job_with_its_index_and_result_as_it_finishes(processes):
+    executor = get_executor("local", processes)
+    heard = []
+    try:
+        assert executor.map(square, range(7), done=lambda i, r: heard.append((i, r))) == [x * x for x in range(7)]
+    finally:
+        executor.close()
+    assert sorted(heard) == [(x, x * x) for x in range(7)]
+
+
+def test_done_hears_of_dask_jobs_too(cluster):
+    heard = []
+    executor = DaskExecutor(cluster.scheduler_address)
+    try:
+        assert executor.map(square, range(5), done=lambda i, r: heard.append((i, r))) == [x * x for x in range(5)]
+    finally:
+        executor.close()
+    assert sorted(heard) == [(x, x * x) for x in range(5)]
+
+
 #: a program that starts a local worker, prints its pid, then keeps it busy with a long job
 _ORPHAN = """
 import os, time
