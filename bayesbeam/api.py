@@ -386,15 +386,18 @@ class Diagnosis:
         return write_diagnosis(result, self.summary_dict, _folder(folder, overwrite))
 
 
-def diagnose(recording, **options_) -> Diagnosis:
+def diagnose(recording, checkpoint=None, **options_) -> Diagnosis:
     """Locate where the best damping model misses, name and add the missing physics
-    (``bayesbeam diagnose RECORDING``)."""
+    (``bayesbeam diagnose RECORDING``). ``checkpoint``: a folder where each comparison, wave of
+    optimisations and SMC run is saved as it finishes; with ``resume=True``, a diagnosis killed part-way
+    continues from the steps saved there (:mod:`bayesbeam.checkpoint`). The folder is kept."""
     args = options("diagnose", recording, **options_)
-    return run_diagnose(args, _recording(recording, args))
+    return run_diagnose(args, _recording(recording, args), checkpoint)
 
 
-def run_diagnose(args, rec: Recording) -> Diagnosis:
-    """:func:`diagnose` of a parsed namespace (the command line's path too)."""
+def run_diagnose(args, rec: Recording, checkpoint=None) -> Diagnosis:
+    """:func:`diagnose` of a parsed namespace (the command line's path too); ``checkpoint``: the
+    folder of its saved steps (:mod:`bayesbeam.checkpoint`), read back with ``args.resume``."""
     from bayesbeam.cli.common import UsageError, job_executor, model_spec
     from bayesbeam.cli.diagnose import diagnose_config
     from bayesbeam.diagnosis import diagnose as diagnose_recording
@@ -408,7 +411,8 @@ def run_diagnose(args, rec: Recording) -> Diagnosis:
     executor = job_executor(args)
     try:
         result = diagnose_recording(rec, model, config, executor, log=_log(args), effects=effects,
-                                    from_comparison=args.from_comparison)
+                                    from_comparison=args.from_comparison, checkpoint=checkpoint,
+                                    resume=args.resume)
     finally:
         executor.close()
     return Diagnosis(result.to_dict(), result=result)

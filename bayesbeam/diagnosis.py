@@ -65,6 +65,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from bayesbeam.checkpoint import NOTHING_SAVED, Checkpoint
 from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locate, share_words
 from bayesbeam.checks.signatures import LINE_EFFECTS, PLACES, rank_effects
 from bayesbeam.checks.survey import survey
@@ -75,6 +76,7 @@ from bayesbeam.comparison import (
     ceiling_gap,
     compare,
     expand_model_sets,
+    fingerprint,
     left_out_words,
     material_left_out,
     optimise_models,
@@ -234,14 +236,17 @@ class Diagnosis:
 
 # ---------------------------------------------------------------------------- the diagnosis
 def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None, executor=None,
-             log=None, effects: tuple = (), from_comparison=None) -> Diagnosis:
+             log=None, effects: tuple = (), from_comparison=None, checkpoint=None, resume: bool = False) -> Diagnosis:
     """Diagnose ``rec`` against ``model`` (None: the best of ``config.models`` by evidence).
 
     ``effects``: effects known to be present, joined to ``model`` or to each model of
     ``config.models`` that can carry them (:func:`combinable`); the catalogue search adds to them.
     ``from_comparison``: the folder of a comparison of ``rec`` with the same fit settings
     (``bayesbeam compare --out``), whose fits of the baseline models are reused
-    (:func:`baseline_fits`).
+    (:func:`baseline_fits`). ``checkpoint``: a folder where each comparison, each wave of
+    optimisations and each SMC run is saved as it finishes (:class:`~bayesbeam.checkpoint.Checkpoint`); with
+    ``resume``, those found there (from a killed diagnosis of the same recording with the same
+    settings) are read back instead of run.
     """
     config = config or DiagnoseConfig()
     say = log or (lambda _text: None)
@@ -250,9 +255,13 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     effects = tuple(effects)
     damping, left_out = material_left_out(rec, expand_model_sets(config.models))
     config = replace(config, models=tuple(damping))
+    saved = NOTHING_SAVED if checkpoint is None else Checkpoint(
+        checkpoint, {"recording": fingerprint(rec), "model": model, "effects": list(effects),
+                     "from_comparison": None if from_comparison is None else str(from_comparison),
+                     "settings": repr(config)}, resume, say)
     models = ([join_model(model, effects)] if model
               else [s for s in (join_model(m, effects) for m in damping) if combinable(s)])
-    results, summary = baseline_fits(rec, models, model is not None, config, executor, log, from_comparison)
+    results, summary = baseline_fits(rec, models, model is not None, config, executor, log, from_comparison, saved)
     current = results[summary["best"]]
     mismatch = _locate(current, rng, config)
     baseline, baseline_map = current, mismatch
@@ -279,7 +288,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         if not chosen and not hosted:
             break
         say(f"round {round_}: fitting {', '.join([current.name + '+' + c.effect for c in chosen] + list(hosted))}")
-        fitted, hosted, unsampled = _fit_augmented(rec, current, chosen, config, executor, log, hosted)
+        fitted, hosted, unsampled = _fit_augmented(rec, current, chosen, config, executor, log, hosted, saved)
         for spec, (ceiling, why) in unsampled.items():
             not_fitted.append(NotFitted(round_, spec, why))
             ceilings[spec] = ceiling
@@ -301,13 +310,15 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     added = tuple(t.effect for t in trials if t.added)
     if model is None and added:
         recheck = recheck_damping(rec, current, effects + added, config, executor, log, first=first, fitted=spare,
-                                  ceilings=ceilings)
+                                  ceilings=ceilings, checkpoint=saved)
         not_fitted += recheck.not_fitted
         if recheck.switched:
-            current = prune_added(rec, recheck, effects, added, first, config, executor, log)
+            current = prune_added(rec, recheck, effects, added, first, config, executor, log, saved)
             for t in trials:
                 t.dropped = t.effect in recheck.dropped
             mismatch = _locate(current, rng, config)
+    if saved.read_back:
+        say(f"resumed: {saved.read_back} step(s) read back from {checkpoint}")
     return Diagnosis(baseline, baseline_map, rankings, trials, current, mismatch, None if model else summary,
                      time.perf_counter() - started, recheck, not_fitted, {} if model else left_out)
 
@@ -318,26 +329,28 @@ def first_fits(results: dict, damping: list, effects: tuple) -> dict:
 
 
 def baseline_fits(rec, models: list, named: bool, config: DiagnoseConfig, executor, log,
-                  folder=None) -> tuple[dict, dict]:
+                  folder=None, checkpoint=NOTHING_SAVED) -> tuple[dict, dict]:
     """compare's (results, summary) of the baseline ``models`` (``named``: the one model given).
 
     With a comparison ``folder`` (:class:`~bayesbeam.saved_comparison.SavedComparison`) they are
     read back from it instead of fitted: the folder must be a comparison of ``rec`` with the
-    diagnosis's fit settings and hold every model of ``models``; a named model it lacks is fitted.
+    diagnosis's fit settings and hold every model of ``models``; a named model it lacks is fitted
+    (through ``checkpoint``, :func:`compared`).
     """
     say = log or (lambda _text: None)
     saved = None if folder is None else SavedComparison(folder, rec, config.compare.fit)
     if saved is None or (named and models[0] not in saved.models):
         say(f"baseline: {'fitting ' + models[0] if named else 'comparing ' + ', '.join(models)}"
             + ("" if saved is None else f" (not in {folder})"))
-        return compare(rec, models, config.compare, executor, log)
+        return compared(checkpoint, rec, models, config.compare, executor, log)
     results = saved.results(models)
     say(f"baseline: {', '.join(models)} read from the comparison in {folder}")
     return results, saved.summary(models)
 
 
 def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, executor, log,
-                    first: dict | None = None, fitted: dict | None = None, ceilings: dict | None = None) -> DampingRecheck:
+                    first: dict | None = None, fitted: dict | None = None, ceilings: dict | None = None,
+                    checkpoint=NOTHING_SAVED) -> DampingRecheck:
     """Compare the damping models ``config.models`` + ``effects`` (those that can carry them) with ``current``.
 
     ``current`` (a damping model + the effects, already fitted) is not refitted. The switch needs
@@ -365,8 +378,8 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
         + (f" ({', '.join(reused)} fitted before)" if reused else ""))
     started = time.perf_counter()
     starts = {s: _recheck_start(first[specs[s]], current) for s in to_fit if first and specs[s] in first}
-    results = compare(rec, to_fit, config.compare, executor, log, starts=starts,
-                      rivals={current.name: current.evidence})[0] if to_fit else {}
+    results = compared(checkpoint, rec, to_fit, config.compare, executor, log, starts=starts,
+                       rivals={current.name: current.evidence})[0] if to_fit else {}
     results.update(reused)
     results[current.name] = current
     summary = summarise_comparison(rec, results, time.perf_counter() - started)
@@ -380,7 +393,7 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
 
 
 def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first: dict, config: DiagnoseConfig,
-                executor, log):
+                executor, log, checkpoint=NOTHING_SAVED):
     """The final model after the re-check switched the damping: the added effects judged again.
 
     Each effect was added by a decisive log Bayes factor against the damping model of the first
@@ -407,8 +420,8 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
         say(f"judging {', '.join(kept)} again with {damping}: {', '.join(reduced)}")
         if to_fit:
             known = _optimum_values(final)
-            results, _ = compare(rec, to_fit, config.compare, executor, log, starts={s: known for s in to_fit},
-                                 rivals={final.name: final.evidence})
+            results, _ = compared(checkpoint, rec, to_fit, config.compare, executor, log,
+                                  starts={s: known for s in to_fit}, rivals={final.name: final.evidence})
             fitted.update(results)
             recheck.results.update(results)
         costs = {}
@@ -428,6 +441,19 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
         final = fitted[spec]
     recheck.final = final.name
     return final
+
+
+def compared(checkpoint, rec, models, config, executor, log, starts=None, rivals=None, optimised=None):
+    """:func:`~bayesbeam.comparison.compare`'s (results, summary), a step of ``checkpoint``
+    (:mod:`bayesbeam.checkpoint`) named by the models, their starts, the rivals' log evidence and
+    the log posterior of each optimum given; its SMC runs are steps of their own, saved as each
+    finishes."""
+    inputs = {"models": list(models), "starts": starts or {},
+              "rivals": {m: [e.log_z, e.log_z_sd] for m, e in (rivals or {}).items()},
+              "optimised": {m: o[1].log_posterior for m, o in (optimised or {}).items()}}
+    return checkpoint.step("compare", inputs, lambda: compare(rec, models, config, executor, log, starts=starts,
+                                                              rivals=rivals, optimised=optimised,
+                                                              checkpoint=checkpoint))
 
 
 def _below(ceiling: float, current) -> str | None:
@@ -705,7 +731,7 @@ def _best_hosted(hosted: dict, results: list) -> dict:
 
 
 def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, log,
-                   hosted=None) -> tuple[list, dict, dict]:
+                   hosted=None, checkpoint=NOTHING_SAVED) -> tuple[list, dict, dict]:
     """(ModelResults of ``current + effect`` for each candidate, then of each host sampled, in
     one comparison (parallel over models), from :func:`_optimised`; the hosts sampled, as
     ``hosted`` (:func:`_hosted`); the hosts not sampled, :func:`unsampled_hosts`).
@@ -721,16 +747,17 @@ def _fit_augmented(rec, current, candidates, config: DiagnoseConfig, executor, l
     specs = [f"{current.name}+{c.effect}" for c in candidates]
     starts = {s: _probe_values(current, c) for s, c in zip(specs, candidates) if c.value is not None}
     hosted = hosted or {}
-    optima = _optimised(rec, specs, starts, hosted, config, executor, log)
+    optima = checkpoint.step("optimise", {"models": specs, "starts": starts, "hosted": hosted},
+                             lambda: _optimised(rec, specs, starts, hosted, config, executor, log))
     unsampled = unsampled_hosts({s: effect for s, (effect, _) in hosted.items()},
                                 {s: _at_optimum(optima[s])[1] for s in hosted},
                                 {s: laplace_log_evidence(optima[s][1])["log_evidence"] for s in hosted})
     hosted = {s: h for s, h in hosted.items() if s not in unsampled}
     for spec, (_, why) in unsampled.items():
         as_progress(log)(f"not sampling {spec}: {why}")
-    results, _ = compare(rec, specs + list(hosted), config.compare, executor, log,
-                         rivals={current.name: current.evidence},
-                         optimised={s: optima[s] for s in specs + list(hosted)})
+    results, _ = compared(checkpoint, rec, specs + list(hosted), config.compare, executor, log,
+                          rivals={current.name: current.evidence},
+                          optimised={s: optima[s] for s in specs + list(hosted)})
     return [results[s] for s in specs + list(hosted)], hosted, unsampled
 
 

@@ -4,7 +4,8 @@ A study script lists the commands that produce its committed outputs (``COMMANDS
 arguments of the ``bayesbeam`` command line) and renders the tables of its markdown from those
 outputs (``blocks()``: {markdown file: {block name: body}}, :mod:`bayesbeam.report.markdown`).
 ``--tables`` renders without running anything; a test re-renders every block from the committed
-JSON and fails when the markdown has drifted.
+JSON and fails when the markdown has drifted. ``--resume`` continues diagnoses that were killed
+part-way (``bayesbeam diagnose --resume``).
 """
 from __future__ import annotations
 
@@ -23,6 +24,8 @@ def main(description: str, commands: dict[str, list[str]], blocks, argv=None) ->
     """Run the named (default: all) ``commands``, then write ``blocks()``; ``--tables``: only write."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--tables", action="store_true", help="only re-render the tables from the committed outputs")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue killed diagnoses: diagnose commands run with --resume instead of --overwrite")
     parser.add_argument("names", nargs="*", metavar="NAME", help=f"run only these ({', '.join(commands)}; default: all)")
     args = parser.parse_args(argv)
     unknown = [n for n in args.names if n not in commands]
@@ -30,7 +33,7 @@ def main(description: str, commands: dict[str, list[str]], blocks, argv=None) ->
         parser.error(f"unknown name(s) {', '.join(unknown)}: choose from {', '.join(commands)}")
     if not args.tables:
         for name in args.names or list(commands):
-            status = run(commands[name])
+            status = run(resumed(commands[name]) if args.resume else commands[name])
             if status != 0:
                 print(f"{name}: bayesbeam exited with status {status}; tables not written", file=sys.stderr)
                 return status
@@ -39,6 +42,14 @@ def main(description: str, commands: dict[str, list[str]], blocks, argv=None) ->
     for path in write_files(blocks()):
         print(f"wrote {path.relative_to(ROOT)}")
     return 0
+
+
+def resumed(arguments: list[str]) -> list[str]:
+    """A diagnose command's ``arguments`` with ``--resume`` for ``--overwrite`` (the others as they are):
+    it continues from the steps its killed run saved in its --out folder."""
+    if arguments[0] != "diagnose":
+        return arguments
+    return ["--resume" if word == "--overwrite" else word for word in arguments]
 
 
 def run(arguments: list[str]) -> int:

@@ -674,3 +674,48 @@ def test_a_candidate_not_fitted_leaves_the_models_left_out_alone(monkeypatch):
     summary = d.to_dict()
     assert d.left_out == {} and summary["left_out"] == {}
     assert [n.model for n in d.not_fitted] == ["q1+axial_load"]
+
+
+def _timeless(summary):
+    """diagnosis.json's dict without its wall times ("seconds"), which no two runs share."""
+    if isinstance(summary, dict):
+        return {k: _timeless(v) for k, v in summary.items() if k != "seconds"}
+    if isinstance(summary, list):
+        return [_timeless(v) for v in summary]
+    return summary
+
+
+def test_a_diagnosis_killed_in_a_round_s_comparison_resumes_to_the_uninterrupted_result(monkeypatch, tmp_path):
+    """plumbing: a diagnosis saves each comparison, each wave of optimisations and each SMC run in
+    its checkpoint folder. Killed during the round's comparison (its file and its last SMC run
+    gone), a resumed diagnosis reads back the baseline's comparison, the round's optimisations and
+    the SMC runs that had finished (none of them run again), runs the lost SMC run and the rest of
+    that comparison, and ends with the uninterrupted diagnosis.json to the last digit (every draw
+    is seeded from the settings)."""
+    import functools
+    from importlib import import_module
+
+    from tests.diagnosis_cases import CONFIG
+
+    dg, cmp = import_module("bayesbeam.diagnosis"), import_module("bayesbeam.comparison")
+    rec = recording("root_compliance")
+    config = replace(CONFIG, rounds=1, candidates=1, catalogue=("root_compliance", "axial_load"))
+    whole = diagnose(rec, "q1", config, checkpoint=tmp_path)
+    assert whole.trials                                     # the round ran: there is something to resume
+    runs = whole.baseline.evidence.runs                     # each repeat its own step, none read back for another
+    assert len(runs) == 2 and runs[0].log_z != runs[1].log_z
+
+    def by_age(pattern):
+        return sorted(tmp_path.glob(pattern), key=lambda p: p.stat().st_mtime_ns)
+    assert len(by_age("compare-*.pkl")) == 2 and len(by_age("optimise-*.pkl")) == 1
+    by_age("compare-*.pkl")[-1].unlink()
+    by_age("smc_job-*.pkl")[-1].unlink()
+    compared, optimised, sampled = [], [], []
+    real_compare, real_optimised, real_smc = dg.compare, dg._optimised, cmp.smc_job
+    monkeypatch.setattr(dg, "compare", lambda rec, models, *a, **k: compared.append(list(models)) or
+                        real_compare(rec, models, *a, **k))
+    monkeypatch.setattr(dg, "_optimised", lambda *a, **k: optimised.append(1) or real_optimised(*a, **k))
+    monkeypatch.setattr(cmp, "smc_job", functools.wraps(real_smc)(lambda args: sampled.append(1) or real_smc(args)))
+    resumed = diagnose(rec, "q1", config, checkpoint=tmp_path, resume=True)
+    assert compared == [[t.result.name for t in whole.trials]] and not optimised and len(sampled) == 1
+    assert _timeless(resumed.to_dict()) == _timeless(whole.to_dict())

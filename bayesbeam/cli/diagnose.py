@@ -1,6 +1,7 @@
 """``bayesbeam diagnose``: what the best damping model misses, which physics explains it, and the fit with it."""
 from __future__ import annotations
 
+from bayesbeam.checkpoint import remove
 from bayesbeam.cli.common import (
     UsageError,
     add_effect_option,
@@ -29,7 +30,9 @@ def add_arguments(p) -> None:
     p.add_argument("--rounds", type=int, default=2, metavar="N", help="effects added at most")
     p.add_argument("--map-replicates", type=int, default=40, metavar="N", help="replicates of the mismatch map")
     add_evidence_options(p)
-    add_out_options(p, "diagnosis.json, report.html, posteriors/")
+    add_out_options(p, "diagnosis.json, report.html, posteriors/; checkpoint/ while it runs",
+                    resume="continue a diagnosis killed part-way: the comparisons, optimisations and SMC runs saved "
+                           "in OUT/checkpoint/ are read back, the rest run")
 
 
 def diagnose_config(args):
@@ -61,9 +64,11 @@ def run(args) -> int:
     from bayesbeam.report.diagnose_outputs import write_diagnosis
 
     out = output_folder(args)
-    result = run_diagnose(args, load_recording(args.recording)).result
+    checkpoint = out / "checkpoint"
+    result = run_diagnose(args, load_recording(args.recording), checkpoint).result
     summary = result.to_dict()
     paths = write_diagnosis(result, summary, out)
+    remove(checkpoint)                  # the outputs are in place: nothing is left to resume
     print(f"baseline {summary['baseline']['model']}: log Z {summary['baseline']['log_evidence']:.1f}, "
           f"RMS standardized residual {summary['baseline']['rms_standardized_residual']:.2f}")
     print(f"added: {', '.join(a + (' (stand-in)' if a in summary['stand_ins'] else '') for a in summary['added']) or 'nothing'}"

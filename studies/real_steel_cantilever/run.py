@@ -2,6 +2,7 @@
 
     OPENBLAS_NUM_THREADS=1 python studies/real_steel_cantilever/run.py [NAME ...]   # rerun, then the tables
     python studies/real_steel_cantilever/run.py --tables                           # only the tables
+    OPENBLAS_NUM_THREADS=1 python studies/real_steel_cantilever/run.py --resume diagnose  # continue a killed diagnosis
 
 Every run is the ``bayesbeam`` command a user would type on ``recording/`` (this folder's set-up
 of data/real/ds4-cantilever-freedecay: the accelerometer's own mass, the tolerances and the

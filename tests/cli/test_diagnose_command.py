@@ -173,3 +173,33 @@ def test_diagnose_without_a_material_table_says_thermoelastic_was_left_out(null,
     assert f"thermoelastic was left out: {why}" in summary["summary"]
     assert f"left out thermoelastic: {why}" in capsys.readouterr().out
     assert "Damping models left out" in (out / "report.html").read_text()
+
+
+@pytest.mark.slow
+def test_resume_continues_a_killed_diagnosis_and_refuses_other_settings(null, tmp_path, capsys, monkeypatch):
+    """A diagnosis killed after its baseline's comparison (here by the map that follows it) leaves
+    that comparison and its SMC runs in OUT/checkpoint/; --resume with another --map-replicates is refused (exit 2)
+    naming identity.json, the setting and the fix; with the same options it reads the baseline back
+    (q1 not compared again), writes the outputs and removes the checkpoint."""
+    import importlib
+
+    dg = importlib.import_module("bayesbeam.diagnosis")
+    out = tmp_path / "diag"
+    real_locate, real_compare = dg._locate, dg.compare
+
+    def killed(*_args, **_kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(dg, "_locate", killed)
+    with pytest.raises(KeyboardInterrupt):
+        main(["diagnose", null, *CHEAP, "--out", str(out)])
+    assert {p.name.split("-")[0] for p in (out / "checkpoint").glob("*.pkl")} == {"compare", "smc_job"}
+    monkeypatch.setattr(dg, "_locate", real_locate)
+    assert main(["diagnose", null, *CHEAP, "--map-replicates", "10", "--resume", "--out", str(out)]) == 2
+    refusal = capsys.readouterr().err
+    assert "identity.json" in refusal and '"settings"' in refusal and "--overwrite" in refusal
+    compared = []
+    monkeypatch.setattr(dg, "compare", lambda rec, models, *a, **k: compared.append(list(models)) or
+                        real_compare(rec, models, *a, **k))
+    assert main(["diagnose", null, *CHEAP, "--resume", "--out", str(out)]) == 0
+    assert ["q1"] not in compared
+    assert sorted(p.name for p in out.iterdir()) == ["diagnosis.json", "posteriors", "report.html"]
