@@ -56,11 +56,11 @@ class Checkpoint:
         self._save(path, result)
         return result
 
-    def map(self, executor, fn, jobs: list, inputs: list, bar=None) -> list:
-        """``executor.map(fn, jobs)``, each job a step named by ``fn`` and its ``inputs``: those this
+    def map(self, executor, fn, jobs: list, inputs, bar=None) -> list:
+        """``executor.map(fn, jobs)``, job i a step named by ``fn`` and ``inputs(i)``: those this
         folder holds are read back (``bar`` advanced for them), the others run and each is saved as
         it finishes, so that a kill loses only the jobs running then."""
-        paths = [self._path(fn.__name__, i) for i in inputs]
+        paths = [self._path(fn.__name__, inputs(i)) for i in range(len(jobs))]
         results = {i: self._read(p) for i, p in enumerate(paths) if p.is_file()}
         if results:
             self.say(f"{len(results)} of {len(jobs)} {fn.__name__} runs read back from {self.folder}")
@@ -99,7 +99,7 @@ class NoCheckpoint:
         return run()
 
     @staticmethod
-    def map(executor, fn, jobs: list, _inputs: list, bar=None) -> list:
+    def map(executor, fn, jobs: list, _inputs, bar=None) -> list:
         return executor.map(fn, jobs, bar=bar)
 
 

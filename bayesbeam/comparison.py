@@ -310,15 +310,18 @@ def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor, bar
     """The SMC runs of each model's ``repeats`` (model -> repeat indices) for the models of
     ``jobs`` (see :func:`_evidence`), those of the model with the most first; each a step of
     ``checkpoint`` named by the model, its seed, the particles and the reference density."""
-    args, owners, inputs = [], [], []
+    args, owners = [], []
     for m in sorted(repeats, key=lambda m: -len(repeats[m])):
         i, post, reference, offset = jobs[m]
         particles = config.particles or max(128, 32 * post.ndim)
         for r in repeats[m]:
             args.append((post, reference, _seed(seeds, i * 1000 + offset + r), particles, config.min_moved))
             owners.append(m)
-            inputs.append({"model": m, "seed": args[-1][2], "particles": particles, "min_moved": config.min_moved,
-                           "reference": _reference_key(reference)})
+
+    def inputs(k):
+        _, reference, seed, particles, min_moved = args[k]
+        return {"model": owners[k], "seed": seed, "particles": particles, "min_moved": min_moved,
+                "reference": _reference_key(reference)}
     runs = checkpoint.map(executor, smc_job, args, inputs, bar=bar) if args else []
     return {m: [run for run, o in zip(runs, owners) if o == m] for m in repeats}
 

@@ -101,7 +101,9 @@ def test_map_saves_each_job_as_it_finishes_and_a_resumed_run_runs_only_the_rest(
     from bayesbeam.executors import SerialExecutor
     from bayesbeam.progress import Progress
 
-    inputs = [{"model": "q1", "seed": s} for s in range(6)]
+    def inputs(i):
+        return {"model": "q1", "seed": i}
+
     with pytest.raises(KeyboardInterrupt):
         Checkpoint(tmp_path, RUN).map(SerialExecutor(), _square_unless_killed, list(range(6)), inputs)
     assert len(list(tmp_path.glob("_square_unless_killed-*.pkl"))) == KILLED_AT     # jobs 0-2 saved
@@ -119,4 +121,4 @@ def test_map_saves_each_job_as_it_finishes_and_a_resumed_run_runs_only_the_rest(
 def test_nothing_saved_maps_on_the_executor():
     from bayesbeam.executors import SerialExecutor
 
-    assert NOTHING_SAVED.map(SerialExecutor(), abs, [-1, 2], [{}, {}]) == [1, 2]
+    assert NOTHING_SAVED.map(SerialExecutor(), abs, [-1, 2], None) == [1, 2]

@@ -258,7 +258,7 @@ def test_every_writing_command_refuses_a_non_empty_out(command, tmp_path, capsys
     assert parse(command, "--overwrite", out=str(out)).overwrite is True
 
 
-@pytest.mark.parametrize("command", ["fit", "batch"])
+@pytest.mark.parametrize("command", ["fit", "diagnose", "batch"])
 def test_resume_continues_where_the_command_resumes_and_excludes_overwrite(command, tmp_path, capsys):
     from bayesbeam.cli.common import output_folder
 
@@ -269,7 +269,7 @@ def test_resume_continues_where_the_command_resumes_and_excludes_overwrite(comma
     with pytest.raises(SystemExit):
         parse(command, "--resume", "--overwrite")
     assert "not allowed with argument" in capsys.readouterr().err
-    assert [n for n, p in subparsers().items() if "--resume" in options(p)] == ["fit", "batch"]
+    assert [n for n, p in subparsers().items() if "--resume" in options(p)] == ["fit", "diagnose", "batch"]
 
 
 def test_out_that_is_a_file_is_refused(tmp_path, capsys):
