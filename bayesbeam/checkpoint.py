@@ -64,8 +64,9 @@ class Checkpoint:
         results = {i: self._read(p) for i, p in enumerate(paths) if p.is_file()}
         if results:
             self.say(f"{len(results)} of {len(jobs)} {fn.__name__} runs read back from {self.folder}")
-        for _ in results if bar is not None else ():
-            bar.advance()
+        if bar is not None:
+            for _ in results:
+                bar.advance()
         todo = [i for i in range(len(jobs)) if i not in results]
         ran = executor.map(fn, [jobs[i] for i in todo], bar=bar, done=lambda k, r: self._save(paths[todo[k]], r))
         results.update(zip(todo, ran))
