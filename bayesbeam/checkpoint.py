@@ -20,9 +20,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 import pickle
 from pathlib import Path
+
+from bayesbeam.io.atomic import atomic_write, write_text
 
 IDENTITY = "identity.json"
 
@@ -82,8 +83,9 @@ class Checkpoint:
         identity = self.folder / IDENTITY
         if not identity.is_file():
             self.folder.mkdir(parents=True, exist_ok=True)
-            _write_atomically(identity, json.dumps(self.identity, indent=1).encode())
-        _write_atomically(path, pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+            write_text(identity, json.dumps(self.identity, indent=1))
+        data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
+        atomic_write(path, lambda temporary: temporary.write_bytes(data))
 
     def _read(self, path: Path):
         self.read_back += 1
@@ -132,9 +134,3 @@ def _check_identity(file: Path, saved: dict, own: dict) -> None:
             raise ValueError(f"{file}: \"{key}\" is {saved.get(key)!r} there, {own.get(key)!r} in this run: the "
                              f"saved steps are another run's. Fix: resume with that run's recording and options, "
                              f"or start again (--overwrite instead of --resume)")
-
-
-def _write_atomically(path: Path, data: bytes) -> None:
-    temporary = path.with_name(path.name + ".tmp")
-    temporary.write_bytes(data)
-    os.replace(temporary, path)
