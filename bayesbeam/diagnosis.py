@@ -176,6 +176,7 @@ class DampingRecheck:
     dropped: tuple = ()             # added effects the switched damping model does not need (:func:`prune_added`)
     final: str | None = None        # the final model after :func:`prune_added` (None: not switched)
     pruning: dict = field(default_factory=dict)     # reduced model -> effect left out, ln B of keeping it, sd, needed
+    tied: tuple = ()                # the other models not decisively behind the best: the evidence cannot rank them
 
     @property
     def best(self) -> str:
@@ -384,12 +385,21 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     results[current.name] = current
     summary = summarise_comparison(rec, results, time.perf_counter() - started)
     best = results[summary["best"]]
-    lbf = best.evidence.log_z - current.evidence.log_z
-    sd = float(np.hypot(best.evidence.log_z_sd, current.evidence.log_z_sd))
-    switched = best is not current and lbf - DECISIVE_SD * sd > DECISIVE
+    lbf, sd, switched = decisively_above(best, current)
+    final = best if switched else current
+    tied = tuple(m for m, r in results.items() if r is not final and not decisively_above(best, r)[2])
     say(f"damping re-check: best {best.name}" + (f", {lbf:.1f} +- {sd:.1f} nats above {current.name}: switched"
-                                                 if switched else f"; {current.name} kept"))
-    return DampingRecheck(effects, summary, results, current.name, switched, left_out)
+                                                 if switched else f"; {current.name} kept")
+        + (f"; not decisively behind the best: {', '.join(tied)}" if tied else ""))
+    return DampingRecheck(effects, summary, results, current.name, switched, left_out, tied=tied)
+
+
+def decisively_above(upper, lower) -> tuple[float, float, bool]:
+    """(ln B, its sd, decisive) of the fitted model ``upper`` against ``lower``: decisive when
+    ln B exceeds :data:`DECISIVE` by :data:`DECISIVE_SD` standard errors (the rule that adds an effect)."""
+    lbf = upper.evidence.log_z - lower.evidence.log_z
+    sd = float(np.hypot(upper.evidence.log_z_sd, lower.evidence.log_z_sd))
+    return float(lbf), sd, bool(lbf - DECISIVE_SD * sd > DECISIVE)
 
 
 def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first: dict, config: DiagnoseConfig,
@@ -426,10 +436,8 @@ def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first:
             recheck.results.update(results)
         costs = {}
         for spec, left in reduced.items():
-            lbf = final.evidence.log_z - fitted[spec].evidence.log_z
-            sd = float(np.hypot(final.evidence.log_z_sd, fitted[spec].evidence.log_z_sd))
-            needed = lbf - DECISIVE_SD * sd > DECISIVE
-            recheck.pruning[spec] = {"without": left, "log_bayes_factor": float(lbf), "sd": sd, "needed": bool(needed)}
+            lbf, sd, needed = decisively_above(final, fitted[spec])
+            recheck.pruning[spec] = {"without": left, "log_bayes_factor": lbf, "sd": sd, "needed": needed}
             if not needed:
                 costs[spec] = lbf
         if not costs:
@@ -860,10 +868,8 @@ def cross_starts(effect_of: dict, optima: dict) -> dict:
 
 def _trial(round_, effect, current, mismatch, result, rng, config) -> Trial:
     new_map = _locate(result, rng, config)
-    lbf = result.evidence.log_z - current.evidence.log_z
-    sd = float(np.hypot(result.evidence.log_z_sd, current.evidence.log_z_sd))
-    return Trial(round_, effect, result, new_map, float(lbf), sd, decisive=lbf - DECISIVE_SD * sd > DECISIVE,
-                 improved=improved(mismatch, new_map))
+    lbf, sd, decisive = decisively_above(result, current)
+    return Trial(round_, effect, result, new_map, lbf, sd, decisive=decisive, improved=improved(mismatch, new_map))
 
 
 def beam_regions(mismatch: Mismatch) -> list[dict]:
@@ -932,7 +938,7 @@ def summarise(d: Diagnosis) -> dict:
         "left_out": d.left_out,
         "damping_recheck": None if d.recheck is None else {
             "effects": list(d.recheck.effects), "best": d.recheck.best, "previous": d.recheck.previous,
-            "switched": d.recheck.switched, "models": _evidence_table(d.recheck.summary),
+            "switched": d.recheck.switched, "tied": list(d.recheck.tied), "models": _evidence_table(d.recheck.summary),
             "dropped": list(d.recheck.dropped), "pruning": d.recheck.pruning, "final": d.recheck.final},
         "seconds": round(d.seconds, 1),
     }
@@ -1293,11 +1299,26 @@ def _recheck_sentence(r: DampingRecheck) -> str:
         effect_estimates = _estimates({k: v for k, v in posterior_summary(final).items() if k in names})
         return (head + f"{r.best} is preferred over {r.previous} by {best['log_evidence'] - previous['log_evidence']:.1f} "
                 f"nats (decisive), so the damping verdict changes to {r.best}: the first comparison was misled "
-                f"by the missing physics." + _pruning_sentence(r) + f" In {final.name}: {effect_estimates}.")
+                f"by the missing physics." + _tie_sentence(r) + _pruning_sentence(r) + f" In {final.name}: {effect_estimates}.")
     if r.best == r.previous:
-        return head + f"{r.previous} stays the best (posterior probability {previous['probability']:.3f})."
+        return head + f"{r.previous} stays the best (posterior probability {previous['probability']:.3f})." + _tie_sentence(r)
     return (head + f"{r.best} scores {best['log_evidence'] - previous['log_evidence']:.1f} nats above {r.previous}, "
             f"not decisive: {r.previous} is kept.")
+
+
+def _tie_sentence(r: DampingRecheck) -> str:
+    """The models the evidence does not rank decisively below the best (:attr:`DampingRecheck.tied`), in words."""
+    models = r.summary["models"]
+    tied = [m for m in r.tied if m != r.best]
+    if not tied:
+        return ""
+    behind = " and ".join(f"{m} ({models[r.best]['log_evidence'] - models[m]['log_evidence']:.1f} nats behind)"
+                          for m in tied)
+    text = (f" {behind} {'is' if len(tied) == 1 else 'are'} not decisively behind {r.best}: the recording does not "
+            f"decide between {'its' if len(tied) == 1 else 'their'} damping and {r.best}'s.")
+    if r.switched:
+        text += f" Of these, {r.best} is taken for its higher log evidence, an order the SMC estimates' noise could reverse."
+    return text
 
 
 def _pruning_sentence(r: DampingRecheck) -> str:

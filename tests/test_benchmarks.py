@@ -367,6 +367,26 @@ def test_diagnose_runs(load_script, monkeypatch, argv):
     assert len(script.diagnose.calls) == 2
 
 
+def test_diagnoses_agree_up_to_damping_models_the_recheck_could_not_rank(load_script):
+    """diagnose.py's agreement of the baseline and current paths: the same final effects, and each
+    final damping model is the other's or tied with the other's re-check best (q1 and q3 with a root
+    spring, within a nat on paper_rootcomp_hammer); a damping model outside the tie, or other
+    effects, disagree."""
+    same = load_script("diagnose").same_final
+
+    def summary(final, best=None, tied=()):
+        return {"final": {"model": final},
+                "damping_recheck": best and {"best": best, "tied": list(tied)}}
+
+    q3_path = summary("q3+root_compliance", "q3+root_compliance+root_damping", ["q1+root_compliance+root_damping"])
+    q1_path = summary("q1+root_compliance", "q1+root_compliance+root_damping", ["q3+root_compliance+root_damping"])
+    assert same(q3_path, q1_path) and same(q1_path, q3_path)
+    assert not same(q3_path, summary("q1+root_compliance", "q1+root_compliance+root_damping"))
+    assert not same(q3_path, summary("q3+root_compliance+root_damping", "q3+root_compliance+root_damping",
+                                     ["q1+root_compliance+root_damping"]))
+    assert same(summary("q1"), summary("q1")) and not same(summary("q1"), summary("q3"))
+
+
 def test_catalogue_runs(load_script, monkeypatch):
     """catalogue.py with diagnose standing in: ``DiagnoseConfig.catalogue``, the effects ``REGISTRY``,
     the shipped examples' truth.json."""

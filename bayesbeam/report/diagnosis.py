@@ -92,7 +92,7 @@ def _summary_section(summary) -> str:
                    f"<b>{esc(recheck['best'])}</b>"
                    + (f"; with it, {esc(' and '.join(recheck['dropped']))} no longer earned a place and "
                       f"{'was' if len(recheck['dropped']) == 1 else 'were'} dropped" if recheck.get("dropped") else "")
-                   + ' (see <a href="#candidates">Candidates and decisions</a>).</p>')
+                   + ' (see <a href="#candidates">Candidates and decisions</a>).' + _tie_words(recheck) + "</p>")
     out.append('<p>Each candidate tried, the decision on it and why, the models not fitted and why: '
                '<a href="#candidates">Candidates and decisions</a>.</p>')
     if summary["not_beam_physics"]:
@@ -524,13 +524,22 @@ def _candidates_section(d, summary) -> str:
         out.append(f"<h3>Damping re-checked with {esc(' and '.join(recheck['effects']))}</h3>"
                    "<p>The first comparison could not see the missing physics; the damping models of the baseline comparison are "
                    f"compared again, each with the added effects. Final damping: <b>{esc(recheck['best'] if recheck['switched'] else recheck['previous'])}</b>"
-                   f"{' (switched: decisive evidence)' if recheck['switched'] else ''}.</p>"
+                   f"{' (switched: decisive evidence)' if recheck['switched'] else ''}.{_tie_words(recheck)}</p>"
                    + _comparison_table(recheck["models"]))
     if recheck and recheck.get("pruning"):
         out.append("<h3>Added effects judged again with the new damping model</h3><p>Each added effect left out in "
                    "turn; one whose log Bayes factor is not decisive is dropped (final model: "
                    f"<b>{esc(recheck['final'])}</b>).</p>" + _pruning_table(recheck["pruning"]))
     return "".join(out)
+
+
+def _tie_words(recheck: dict) -> str:
+    """The damping models the re-check could not rank below its best (diagnosis.json's ``tied``), in words."""
+    tied = [m for m in recheck.get("tied", ()) if m != recheck["best"]]
+    if not tied:
+        return ""
+    return (f" Not decisively behind {esc(recheck['best'])}: {esc(', '.join(tied))}; the recording does not decide "
+            "between these damping models.")
 
 
 def _pruning_table(pruning: dict) -> str:

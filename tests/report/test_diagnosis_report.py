@@ -163,6 +163,12 @@ def test_models_not_fitted_and_the_damping_recheck_are_shown():
     assert "Final damping: <b>q1+root_compliance</b> (switched" in recheck
     assert "q1+root_compliance" in body_rows(recheck)[0]
     assert "judged again" not in part            # nothing pruned: no table
+    assert "Not decisively behind" not in text      # no tie named
+    # a model the evidence cannot rank below the best is named in both places
+    summary["damping_recheck"] |= {"tied": ["q3+root_compliance"]}
+    tied = render(d, summary)
+    words = "Not decisively behind q1+root_compliance: q3+root_compliance; the recording does not decide"
+    assert words in section(tied, "summary") and words in section(tied, "candidates")
     # added effects judged again with the new damping: the dropped one is named, the table shows both
     summary["damping_recheck"] |= {"dropped": ["root_damping"], "final": "q1+root_compliance", "pruning": {
         "q1+root_compliance": {"without": "root_damping", "log_bayes_factor": -1.0, "sd": 0.1, "needed": False},
