@@ -188,11 +188,13 @@ def _search_scale(counter, x, bounds) -> np.ndarray:
     return np.diag(np.where(bent, np.minimum(variance, fallback), fallback))
 
 
-def _axis_curvatures(f, x, step: float, f0: float | None = None) -> np.ndarray:
-    """-d^2 f / dx_i^2 along each coordinate at ``x`` by central differences (``f0`` = f(x) if known)."""
+def _axis_curvatures(f, x, step, f0: float | None = None) -> np.ndarray:
+    """-d^2 f / dx_i^2 along each coordinate at ``x`` by central differences of ``step`` (one for
+    all coordinates or one each; ``f0`` = f(x) if known)."""
     f0 = f(x) if f0 is None else f0
-    e = np.eye(len(x)) * step
-    return np.array([-(f(x + e[i]) - 2 * f0 + f(x - e[i])) / step**2 for i in range(len(x))])
+    steps = np.broadcast_to(np.asarray(step, dtype=float), (len(x),))
+    e = np.diag(steps)
+    return np.array([-(f(x + e[i]) - 2 * f0 + f(x - e[i])) / steps[i] ** 2 for i in range(len(x))])
 
 
 #: a restarted polish counts as a move when it gains this much log posterior
@@ -343,20 +345,23 @@ def newton_shift(post: LogPosterior, theta: np.ndarray, covariance: np.ndarray, 
     (the conditional covariance). So is one whose log posterior a step away is -inf on one side
     only: an optimum against a constraint inside the priors' box (q2's memory term taking nearly
     all the static stiffness, :func:`laplace_covariance`). Not finite on both sides: inf.
+    The gradient's central differences take ``step``, or on a rough coordinate the long step of
+    :func:`difference_steps`.
     """
     d = len(theta)
     held = _near_edge(post, theta, step)
+    steps = difference_steps(post, theta, step)
     grad = np.zeros(d)
     for i in np.flatnonzero(~held):
         e = np.zeros(d)
-        e[i] = step
+        e[i] = steps[i]
         up, down = post(theta + e), post(theta - e)
         if np.isfinite(up) != np.isfinite(down):
             held[i] = True
         elif not np.isfinite(up):
             return np.full(d, np.inf)
         else:
-            grad[i] = (up - down) / (2 * step)
+            grad[i] = (up - down) / (2 * steps[i])
     if not held.any():
         return covariance @ grad
     free = ~held
@@ -389,7 +394,8 @@ def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4
     curvature there is the edge's to O(step). So is one whose log posterior two steps away is
     -inf on one side only (:func:`_off_constraint`): an optimum against a constraint inside the
     priors' box, such as time hysteresis's memory term taking nearly all the static stiffness EI
-    provides (q2 on data it does not describe). Falls back to a diagonal built from the
+    provides (q2 on data it does not describe). A rough coordinate (:func:`difference_steps`)
+    takes its long step instead of ``step``. Falls back to a diagonal built from the
     curvature along each axis (or 1e-3^2) where the Hessian is not negative definite.
     """
     d = len(theta)
@@ -397,15 +403,8 @@ def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4
     theta = np.where(_near_edge(post, theta, 3 * step), np.clip(theta, low + 3 * step, high - 3 * step), theta)
     theta = _off_constraint(post, theta, 2 * step, 3 * step)
     f0 = post(theta)
-    h = np.zeros((d, d))
-    e = np.eye(d) * step
-    for i in range(d):
-        for j in range(i, d):
-            fpp = post(theta + e[i] + e[j])
-            fpm = post(theta + e[i] - e[j])
-            fmp = post(theta - e[i] + e[j])
-            fmm = post(theta - e[i] - e[j])
-            h[i, j] = h[j, i] = (fpp - fpm - fmp + fmm) / (4 * step * step)
+    steps = difference_steps(post, theta, step, f0)
+    h = _hessian(post, theta, steps)
     if not np.all(np.isfinite(h)):
         return np.eye(d) * 1e-6
     try:
@@ -413,8 +412,93 @@ def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4
         np.linalg.cholesky(cov)
         return cov
     except np.linalg.LinAlgError:
-        diag = _axis_curvatures(post, theta, step, f0)
+        diag = _axis_curvatures(post, theta, steps, f0)
         return np.diag(np.where(diag > 0, 1.0 / np.maximum(diag, 1e-300), 1e-6))
+
+
+#: the drop of log p (nats) a rough coordinate's long finite-difference step aims for on average
+#: over its two sides: about six posterior sds, exact for a Gaussian posterior
+LAPLACE_DROP = 20.0
+#: a coordinate is rough when its curvature over the short step differs from that over the long
+#: step by more than this many times the latter (a Gaussian's are equal; a quartic term of a
+#: smooth posterior changes the long step's by tens of percent at most)
+ROUGH_RATIO = 2.0
+#: the shortest long step (sampling coordinates): rounding of log p (~2e-5 nats) stays far below
+#: the drop over it for any posterior sd the data give
+MIN_STEP = 1e-7
+
+
+def difference_steps(post: LogPosterior, theta: np.ndarray, step: float, f0: float | None = None) -> np.ndarray:
+    """Per coordinate, the finite-difference step of :func:`laplace_covariance` and :func:`newton_shift`:
+    ``step``, or, on a **rough** coordinate, a step over which log p drops by about
+    :data:`LAPLACE_DROP` nats (:func:`_long_step`).
+
+    A stick-slip likelihood on a long record is rough: its simulation error jumps wherever a
+    friction event crosses a fine node, so its optimum is one of many sharp local maxima. On the
+    8 s friction release of benchmarks/nonlinear_long.py, at the q1+dry_friction host's optimum
+    (N = 16), log p drops 4 nats over 1e-6 in log EI and 0.4-1.3 nats over 1e-4 in log gamma,
+    where the posterior's curvature gives 0.03: differences over 1e-4 measure the roughness, and
+    the SMC run seeded by that covariance settled 5.7 nats low. A coordinate is rough when its
+    curvature over ``step`` differs from that over the long step by more than :data:`ROUGH_RATIO`
+    times the latter (a ripple's crest makes it larger, its trough or flank smaller or negative);
+    elsewhere the long step is not used, so a smooth posterior's covariance and shifts are those of
+    the fixed step exactly (at the cost of four more evaluations per coordinate). ``f0`` =
+    log p at ``theta`` if known."""
+    f0 = post(theta) if f0 is None else f0
+    short = _axis_curvatures(post, theta, step, f0)
+    steps = np.full(len(theta), float(step))
+    for i in np.flatnonzero(np.isfinite(short)):
+        # a Gaussian's drop over the first guess, from the curvature over step, is LAPLACE_DROP
+        guess = np.sqrt(2 * LAPLACE_DROP / short[i]) if short[i] > 0 else 10 * step
+        found = _long_step(post, theta, i, guess, step, f0)
+        if found is not None and abs(short[i] - (long := 2 * found[1] / found[0] ** 2)) > ROUGH_RATIO * long:
+            steps[i] = found[0]
+    return steps
+
+
+def _long_step(post: LogPosterior, theta: np.ndarray, i: int, guess: float, step: float,
+               f0: float) -> tuple[float, float] | None:
+    """(step, the mean drop of log p over it on both sides) along coordinate ``i``, the step searched
+    from ``guess`` until the drop is within a factor 4 of :data:`LAPLACE_DROP` (rescaled as a
+    quadratic's drop would need, grown tenfold where log p does not drop, shrunk fourfold where a
+    side is not finite), within [:data:`MIN_STEP`, cap], cap a third of the distance to the prior's
+    nearer edge and an eighth of its width (not below ``step``); the last step with a positive
+    finite drop, or None."""
+    low, high = _support(post)
+    cap = max(step, min((high[i] - low[i]) / 8, (theta[i] - low[i]) / 3, (high[i] - theta[i]) / 3))
+    h, found = float(np.clip(guess, MIN_STEP, cap)), None
+    for _ in range(8):
+        e = np.zeros(len(theta))
+        e[i] = h
+        drop = f0 - 0.5 * (post(theta + e) + post(theta - e))
+        if not np.isfinite(drop):
+            if found is not None:
+                break
+            h = max(h / 4, MIN_STEP)
+            continue
+        if drop > 0:
+            found = (h, float(drop))
+        wanted = float(np.clip(h * 10 if drop <= 0 else h * np.sqrt(LAPLACE_DROP / drop), MIN_STEP, cap))
+        if 0.5 < wanted / h < 2:
+            break
+        h = wanted
+    return found
+
+
+def _hessian(post: LogPosterior, theta: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """The Hessian of log p at theta by central differences of ``steps`` (one per coordinate)
+    reaching two steps; its diagonal is the curvature over twice each step."""
+    d = len(theta)
+    h = np.zeros((d, d))
+    e = np.diag(steps)
+    for i in range(d):
+        for j in range(i, d):
+            fpp = post(theta + e[i] + e[j])
+            fpm = post(theta + e[i] - e[j])
+            fmp = post(theta - e[i] + e[j])
+            fmm = post(theta - e[i] - e[j])
+            h[i, j] = h[j, i] = (fpp - fpm - fmp + fmm) / (4 * steps[i] * steps[j])
+    return h
 
 
 def _off_constraint(post: LogPosterior, theta: np.ndarray, reach: float, move: float) -> np.ndarray:
