@@ -18,7 +18,12 @@ until each has had ``min_accepted`` accepted moves on average, or, with ``min_mo
 a particle has moved at least once with probability ``min_moved`` at the stage's acceptance rate
 a, 1 - (1 - a)^steps, and at least :data:`MIN_MOVE_STEPS` (the rule of PyMC3's SMC, its
 ``p_acc_rate``): at a = 0.3 and ``min_moved`` = 0.85, 6 steps where three accepted moves take 10.
-The last stage ends at
+The DE step
+(emcee's :math:`2.38/\sqrt{2\,n_\mathrm{dim}}` times a factor) shrinks after a stage whose mean acceptance falls
+below :data:`LOW_ACCEPTANCE` (:func:`next_scale`): on a curved or rough posterior the step,
+sized by differences across the whole particle cloud, overshoots, acceptance decays from stage to
+stage and three accepted moves take dozens of steps. A posterior on which acceptance stays above
+it is moved exactly as at the fixed step. The last stage ends at
 :math:`\beta = 1` with a resample and a move, so the particles are posterior draws.
 
 The estimate of :math:`Z` is unbiased; :math:`\log Z` is biased low by about half its variance.
@@ -57,6 +62,10 @@ MIN_ACCEPTED = 3
 MAX_MOVE_STEPS = 60
 #: fewest mutation steps per stage under the ``min_moved`` rule
 MIN_MOVE_STEPS = 2
+#: a stage whose mean acceptance falls below this shrinks the next stage's DE step (:func:`next_scale`)
+LOW_ACCEPTANCE = 0.15
+#: the smallest DE step, as a fraction of emcee's 2.38 / sqrt(2 ndim)
+MIN_SCALE = 0.1
 #: Student-t degrees of freedom and scale inflation of the Laplace reference
 REFERENCE_DF = 4.0
 REFERENCE_SCALE = 1.5
@@ -222,6 +231,7 @@ class SMCRun:
     acceptance: np.ndarray         # mean acceptance fraction per stage
     n_evaluations: int
     seconds: float
+    scales: np.ndarray | None = None   # the DE step per stage, as a fraction of emcee's (:func:`next_scale`)
 
 
 def smc(terms, reference: Reference, rng: np.random.Generator, *, n_particles: int = 256,
@@ -238,7 +248,7 @@ def smc(terms, reference: Reference, rng: np.random.Generator, *, n_particles: i
         log_prior, log_lik = (np.array(v, float) for v in zip(*mapper(terms, list(theta))))
     log_q = reference.log_density(theta)
     n_eval = n_particles
-    beta, log_z, betas, acceptance = 0.0, 0.0, [0.0], []
+    beta, log_z, betas, acceptance, scales = 0.0, 0.0, [0.0], [], [1.0]
     while beta < 1.0:
         if len(betas) > max_stages:
             raise RuntimeError(f"SMC needed more than {max_stages} tempering stages; the reference "
@@ -253,14 +263,24 @@ def smc(terms, reference: Reference, rng: np.random.Generator, *, n_particles: i
         theta, log_prior, log_lik, log_q = theta[keep], log_prior[keep], log_lik[keep], log_q[keep]
         theta, log_prior, log_lik, log_q, accepted, used = _move(terms, reference, beta, theta, log_prior,
                                                                  log_lik, log_q, rng, min_accepted, pool,
-                                                                 min_moved)
+                                                                 min_moved, scales[-1])
         n_eval += used * n_particles
         acceptance.append(accepted)
+        scales.append(next_scale(scales[-1], accepted))
         if progress is not None:
             progress(f"SMC stage {len(betas) - 1}: beta = {beta:.4g}, log Z so far {log_z:.6g}, "
                      f"{used} moves, acceptance {accepted:.2f}")
     return SMCRun(float(log_z), np.array(betas), theta, log_lik, log_prior, np.array(acceptance),
-                  n_eval, time.perf_counter() - started)
+                  n_eval, time.perf_counter() - started, np.array(scales[:-1]))
+
+
+def next_scale(scale: float, acceptance: float) -> float:
+    """The next stage's DE step (a fraction of emcee's 2.38 / sqrt(2 ndim)) after a stage at ``scale``
+    whose mean acceptance was ``acceptance``: below :data:`LOW_ACCEPTANCE` times acceptance /
+    LOW_ACCEPTANCE (at least a quarter), down to :data:`MIN_SCALE`; otherwise 1.5 x, up to 1."""
+    if acceptance < LOW_ACCEPTANCE:
+        return max(scale * max(acceptance / LOW_ACCEPTANCE, 0.25), MIN_SCALE)
+    return min(1.0, scale * 1.5)
 
 
 def _next_step(gain, remaining, target_ess) -> float:
@@ -295,7 +315,8 @@ def _systematic_resample(log_w, rng) -> np.ndarray:
 BLOBS = [("log_prior", float), ("log_lik", float), ("log_q", float)]
 
 
-def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_accepted, pool, min_moved=None):
+def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_accepted, pool, min_moved=None,
+          scale=1.0):
     """emcee DE moves on f_beta until min_accepted accepted moves per particle on average (or
     the ``min_moved`` rule of the module docstring).
 
@@ -308,7 +329,8 @@ def _move(terms, reference, beta, theta, log_prior, log_lik, log_q, rng, min_acc
     blobs = np.array(list(zip(log_prior, log_lik, log_q)), dtype=BLOBS)
     vectorize = target.batch is not None
     sampler = emcee.EnsembleSampler(n, ndim, target.many if vectorize else target, pool=pool,
-                                    moves=emcee.moves.DEMove(), blobs_dtype=BLOBS, vectorize=vectorize)
+                                    moves=emcee.moves.DEMove(gamma0=scale * 2.38 / np.sqrt(2 * ndim)),
+                                    blobs_dtype=BLOBS, vectorize=vectorize)
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
     state = emcee.State(theta, log_prob=log_f, blobs=blobs)
     steps = 0
