@@ -370,7 +370,7 @@ def test_diagnose_runs(load_script, monkeypatch, argv):
 def test_diagnoses_agree_up_to_damping_models_the_recheck_could_not_rank(load_script):
     """diagnose.py's agreement of the baseline and current paths: the same final effects, and each
     final damping model is the other's or tied with the other's re-check best (q1 and q3 with a root
-    spring, within a nat on paper_rootcomp_hammer); a damping model outside the tie, or other
+    spring, tied on paper_rootcomp_hammer); a damping model outside the tie, or other
     effects, disagree."""
     same = load_script("diagnose").same_final
 

@@ -461,8 +461,8 @@ def test_the_damping_recheck_switches_only_on_decisive_evidence(monkeypatch):
 
 def test_the_recheck_names_the_damping_models_it_cannot_rank(monkeypatch):
     """paper_rootcomp_hammer's second pattern: with the root spring in every model, q1 and q3 both
-    beat q2 decisively but lie within a nat of each other, so which of them scores highest is the
-    SMC estimates' noise. The re-check switches to the best and names the other as tied, in the
+    beat q2 decisively but lie within the decisive margin of each other, so which of them scores
+    highest is the SMC estimates' noise. The re-check switches to the best and names the other as tied, in the
     log and the sentence; a model behind the best by more than the decisive margin (5 nats by 3
     standard errors of 0.14 nats: 5.4) is not tied. Both sides of that margin are tested (5.0 and
     5.9 nats behind), so a 10 % error in DECISIVE fails."""
