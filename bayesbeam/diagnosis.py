@@ -386,8 +386,7 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
     summary = summarise_comparison(rec, results, time.perf_counter() - started)
     best = results[summary["best"]]
     lbf, sd, switched = decisively_above(best, current)
-    final = best if switched else current
-    tied = tuple(m for m, r in results.items() if r is not final and not decisively_above(best, r)[2])
+    tied = tuple(m for m, r in results.items() if r is not best and not decisively_above(best, r)[2])
     say(f"damping re-check: best {best.name}" + (f", {lbf:.1f} +- {sd:.1f} nats above {current.name}: switched"
                                                  if switched else f"; {current.name} kept")
         + (f"; not decisively behind the best: {', '.join(tied)}" if tied else ""))
@@ -1309,13 +1308,12 @@ def _recheck_sentence(r: DampingRecheck) -> str:
 def _tie_sentence(r: DampingRecheck) -> str:
     """The models the evidence does not rank decisively below the best (:attr:`DampingRecheck.tied`), in words."""
     models = r.summary["models"]
-    tied = [m for m in r.tied if m != r.best]
-    if not tied:
+    if not r.tied:
         return ""
     behind = " and ".join(f"{m} ({models[r.best]['log_evidence'] - models[m]['log_evidence']:.1f} nats behind)"
-                          for m in tied)
-    text = (f" {behind} {'is' if len(tied) == 1 else 'are'} not decisively behind {r.best}: the recording does not "
-            f"decide between {'its' if len(tied) == 1 else 'their'} damping and {r.best}'s.")
+                          for m in r.tied)
+    text = (f" {behind} {'is' if len(r.tied) == 1 else 'are'} not decisively behind {r.best}: the recording does "
+            f"not decide between {'its' if len(r.tied) == 1 else 'their'} damping and {r.best}'s.")
     if r.switched:
         text += f" Of these, {r.best} is taken for its higher log evidence, an order the SMC estimates' noise could reverse."
     return text

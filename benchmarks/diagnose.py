@@ -60,14 +60,13 @@ def same_final(one: dict, other: dict) -> bool:
     """Whether two diagnoses (diagnosis.json's content) end with the same effects and a damping model
     each finds in the other's final damping or tied with its re-check's best (``damping_recheck.tied``):
     the evidence does not rank tied damping models, so which of them ends the path is noise."""
-    def damping(summary: dict) -> tuple[tuple, set]:
+    def damping(summary: dict) -> tuple[tuple, tuple, set]:
         mechanisms, effects = split_model(summary["final"]["model"])
-        r = summary["damping_recheck"] or {}
+        r = summary["damping_recheck"]
         tied = {split_model(m)[0] for m in [*r.get("tied", ()), r["best"]]} if r else set()
-        return effects, {mechanisms} | tied
+        return effects, mechanisms, {mechanisms} | tied
 
-    (effects, allowed), (effects_other, allowed_other) = damping(one), damping(other)
-    final, final_other = split_model(one["final"]["model"])[0], split_model(other["final"]["model"])[0]
+    (effects, final, allowed), (effects_other, final_other, allowed_other) = damping(one), damping(other)
     return effects == effects_other and final in allowed_other and final_other in allowed
 
 

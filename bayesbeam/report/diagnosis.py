@@ -535,7 +535,7 @@ def _candidates_section(d, summary) -> str:
 
 def _tie_words(recheck: dict) -> str:
     """The damping models the re-check could not rank below its best (diagnosis.json's ``tied``), in words."""
-    tied = [m for m in recheck.get("tied", ()) if m != recheck["best"]]
+    tied = recheck.get("tied", ())
     if not tied:
         return ""
     return (f" Not decisively behind {esc(recheck['best'])}: {esc(', '.join(tied))}; the recording does not decide "

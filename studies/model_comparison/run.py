@@ -70,8 +70,8 @@ def blind_chain() -> str:
         steps.append(f"**the damping re-check**, every default damping model with {' and '.join(recheck['effects'])}, "
                      f"in nats against {recheck['previous']}: {others}; "
                      + (f"switched to {recheck['best']};" if recheck["switched"] else "kept;")
-                     + (f" not decisively behind {recheck['best']}: {', '.join(tied)};" if (tied := [
-                         m for m in recheck.get("tied", ()) if m != recheck["best"]]) else ""))
+                     + (f" not decisively behind {recheck['best']}: {', '.join(recheck['tied'])};"
+                        if recheck.get("tied") else ""))
         for spec, v in recheck.get("pruning", {}).items():
             steps.append(f"without {v['without']} ({spec}): ln B of keeping it {v['log_bayes_factor']:.1f} nats, "
                          f"{'needed' if v['needed'] else 'not needed: dropped'};")
