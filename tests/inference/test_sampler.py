@@ -123,14 +123,17 @@ def test_a_choice_of_discretisation_from_a_start_alone_runs_no_global_search(mon
 
 
 @pytest.mark.parametrize("shifts, last_n, stalled", [
-    ((0.3, 0.2, 0.25, 0.1), 16, True),           # 12 -> 16 moves no less than 8 -> 12: roughness
+    ((0.3, 0.2, 0.25, 0.1), 12, True),           # 16 -> 24 moves no less than 12 -> 16: roughness, 12 kept
+    ((0.3, 0.2, 0.2, 0.1), 12, True),            # ... also when it moves exactly as much
     ((0.3, 0.2, 0.15, 0.12, 0.11), 32, False),   # shrinking: climbs to the ladder's top
     ((0.3, 0.05), 12, False),                    # passes at 12
 ])
 def test_the_ladder_stops_where_the_shift_stops_shrinking(monkeypatch, shifts, last_n, stalled):
     """choose_discretisation with the quintic ladder (8, 12, ...) and each rung's check's largest
-    shift scripted: it climbs while the check fails and the shift shrinks, and stops, ``stalled``,
-    at the first rung whose shift is no smaller than the rung's below."""
+    shift scripted: it climbs while the check fails and the shift shrinks; at the first rung
+    whose shift is no smaller than the rung's below it stops, ``stalled``, and returns the rung
+    below (the finer one was no closer to the limit) with that rung's check and the stalled
+    check's shift."""
     from types import SimpleNamespace
 
     fit = importlib.import_module("bayesbeam.inference.fit")
@@ -152,6 +155,9 @@ def test_the_ladder_stops_where_the_shift_stops_shrinking(monkeypatch, shifts, l
     chosen, _, record = fit.choose_discretisation(None, "q1", FitConfig(), np.random.default_rng(1))
     assert chosen.model.n_intervals == record["n_intervals"] == last_n
     assert record["stalled"] is stalled
+    assert record["max_shift_sd"] == script[last_n]
+    if stalled:
+        assert record["finer_max_shift_sd"] == script[N_LADDERS[5][N_LADDERS[5].index(last_n) + 1]]
 
 
 class _FlatPosterior:
