@@ -34,6 +34,7 @@ import pytest
 
 from bayesbeam.checks.discrepancy import locate
 from bayesbeam.checks.signatures import _Evaluator, rank_effects
+from bayesbeam.executors import LocalExecutor
 from bayesbeam.inference.fit import prepare
 from bayesbeam.inference.sampler import find_optimum
 from bayesbeam.model import BeamModel
@@ -130,6 +131,21 @@ def test_null_recording_names_no_effect():
     assert result.p_value >= 0.01
     assert result.best is None and not any(c.supported for c in result.candidates)
     assert "no effect is needed" in " ".join(result.notes)
+
+
+def test_an_executor_fits_the_candidates_side_by_side_with_the_serial_result():
+    """The candidates' scans are independent and deterministic: fitted on two processes they are
+    the serial screen's, in its order, to the last digit."""
+    post, draws, mismatch = fitted("measurement_delay")
+    effects = ("measurement_delay", "axial_load", "sensor_mass")
+    executor = LocalExecutor(2)
+    try:
+        parallel = rank_effects(post, draws, mismatch, effects, executor)
+    finally:
+        executor.close()
+    serial = rank_effects(post, draws, mismatch, effects)
+    assert [c.to_dict() for c in parallel.candidates] == [c.to_dict() for c in serial.candidates]
+    assert len(serial.candidates) == 3
 
 
 def test_reasoning_states_what_a_person_can_check():
