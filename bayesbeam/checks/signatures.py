@@ -266,8 +266,7 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None,
 
     ``executor`` (:mod:`bayesbeam.executors`; None: one after another) fits the candidates side by
     side: each is a scan of its own augmented model, independent of the others, and on a model
-    with a nonlinear effect each scan simulates hundreds of times (about 16 s per candidate on
-    8 s of a friction release)."""
+    with a nonlinear effect each scan simulates hundreds of times."""
     model = posterior.likelihood.model
     names = [e for e in (effects or catalogue.REGISTRY) if e not in {x.name for x in model.effects}]
     lines = [e for e in names if e in LINE_EFFECTS]

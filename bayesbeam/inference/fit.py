@@ -334,8 +334,7 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     of an sd, or by tens of sd, at every rung, and climbing would only make every later
     evaluation dearer. The rung below is then returned, with its own check and the stalled
     check's largest shift (``finer_max_shift_sd``): the finer rung was no closer to the limit,
-    and the coarser one costs less per evaluation (on 8 s of a friction release, quintic N = 12
-    against 16: 11 against 14 ms).
+    and the coarser one costs less per evaluation.
     """
     ladder = N_LADDERS[config.degree]
     problem = prepare(rec, model, config, config.n_intervals or starting_rung(rec, model, config, log))
