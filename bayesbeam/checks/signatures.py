@@ -288,7 +288,7 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None,
     level = ALPHA / max(len(screened) + len(lines), 1)
     jobs = [(name, aug, parameter, posterior, theta, base_features, space, mismatch, level)
             for name, aug, parameter in screened]
-    found = ((executor.map if executor is not None else _serial)(_candidate_job, jobs)
+    found = (list((executor.map if executor is not None else map)(_candidate_job, jobs))
              + [_line_candidate(model, mismatch, space, level) for _ in lines])
     found.sort(key=lambda c: (not c.supported, -c.delta_chi2))
     if len(found) > 1 and found[0].predicted:
@@ -458,10 +458,6 @@ def _sensor_of(aug: BeamModel, name: str, parameter: str) -> str | None:
     if name not in PER_SENSOR_EFFECTS or len(aug.recording.sensors) == 1:
         return None
     return aug.recording.sensors[_effect(aug, name).parameters.index(parameter)].name
-
-
-def _serial(fn, jobs) -> list:
-    return [fn(job) for job in jobs]
 
 
 def _candidate_job(args) -> Candidate:
