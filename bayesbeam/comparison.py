@@ -12,7 +12,10 @@ For each model (a preset or ``+``-joined mechanisms, optionally with effects):
    (:func:`settle`). The repeats run in two waves: a model that the first :data:`FIRST_WAVE`
    repeats already put decisively behind the leader (:data:`EARLY_STOP_NATS`, :func:`beaten`)
    gets no more; its summary says so and why. The model with the highest likelihood at its
-   optimum, the likely leader, runs all its repeats in the first wave.
+   optimum, the likely leader, runs all its repeats in the first wave. A caller that decides by
+   a decisive log Bayes factor (the diagnosis) names it, ``decisive``: then every model starts
+   with the first wave, and one whose every such decision against the others is settled
+   (:func:`settled`) gets no more either.
 3. **Screens**, each labelled with what it assumes: BIC and the Laplace approximation at the
    optimum, and PSIS leave-future-out over the likelihood's time blocks
    (:mod:`bayesbeam.inference.screens`).
@@ -177,7 +180,8 @@ def expand_model_sets(names) -> list[str]:
 
 def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, executor=None,
             log=None, starts: dict | None = None, rivals: dict | None = None,
-            optimised: dict | None = None, checkpoint=NOTHING_SAVED) -> tuple[dict, dict]:
+            optimised: dict | None = None, checkpoint=NOTHING_SAVED,
+            decisive: tuple[float, float] | None = None) -> tuple[dict, dict]:
     """Compare ``models`` (names, or named sets of :data:`MODEL_SETS`) on ``rec``: ``(results, summary)``.
 
     ``results`` maps each model to its :class:`ModelResult`; ``summary`` is the JSON-ready
@@ -189,6 +193,10 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
     decides which repeats to skip. ``optimised``: model -> what :func:`optimise_job` returned for
     it (with this ``config``), not optimised again. ``checkpoint``: where each SMC run is saved
     as it finishes and read back from on a resumed run (:meth:`bayesbeam.checkpoint.Checkpoint.map`).
+    ``decisive``: (nats, standard errors): the caller calls one model decisively above another
+    when its log Bayes factor exceeds the nats by that many standard errors; with early
+    stopping on, a model's remaining repeats are skipped once no such decision about it can
+    change (:func:`settled`).
     """
     config = config or CompareConfig()
     executor = executor or SerialExecutor()
@@ -208,7 +216,7 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
                                                                                 optimum.covariance), 0)
                                         for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))},
                                        config, seeds[1], executor, rivals or {}, progress,
-                                       _ceilings(posteriors, stage1), bar, checkpoint)
+                                       _ceilings(posteriors, stage1), bar, checkpoint, decisive)
     evidences = settle(evidences, posteriors, config, seeds[1], executor, progress, skip=set(stopped),
                        checkpoint=checkpoint)
     with progress.stage("predictive checks", len(models), "model") as bar:
@@ -260,7 +268,8 @@ def left_out_words(left_out: dict) -> str:
 
 
 def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict | None = None,
-              say=None, ceilings: dict | None = None, bar=None, checkpoint=NOTHING_SAVED) -> tuple[dict, dict]:
+              say=None, ceilings: dict | None = None, bar=None, checkpoint=NOTHING_SAVED,
+              decisive: tuple[float, float] | None = None) -> tuple[dict, dict]:
     """(Evidence per model, why each stopped model was stopped): ``config.repeats`` SMC runs per
     model, combined. ``jobs`` maps a model to (its index, its posterior, the reference, a seed
     offset); a run's seed is ``(index * 1000 + offset + repeat)``, so a repeat's run is the same
@@ -269,10 +278,12 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
     repeats run first and the models :func:`beaten` (with ``ceilings``) then get no more. The
     model with the highest ceiling, the likely leader, runs all its repeats in the first wave: a
     leader is never stopped, and its last repeat would otherwise run alone while the other
-    workers wait."""
+    workers wait. With ``decisive`` (see :func:`compare`), the models :func:`settled` get no
+    more either, and the likely leader too starts with the first wave (it is usually settled)."""
     early = rivals is not None and config.early_stop is not None and config.repeats > FIRST_WAVE
     first = FIRST_WAVE if early else config.repeats
-    favourite = max(jobs, key=lambda m: ceilings.get(m, -np.inf)) if early and ceilings else None
+    favourite = (max(jobs, key=lambda m: ceilings.get(m, -np.inf))
+                 if early and ceilings and decisive is None else None)
     runs = _runs(jobs, {m: range(config.repeats if m == favourite else first) for m in jobs},
                  config, seeds, executor, bar, checkpoint)
     stopped = {}
@@ -281,8 +292,10 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
         # poor mode must not make a ceiling lower than what the runs found
         seen = {m: max([(ceilings or {}).get(m, -np.inf)] + [float(np.max(r.log_likelihood)) for r in rs])
                 for m, rs in runs.items()}
-        stopped = beaten({**rivals, **{m: combine_runs(r) for m, r in runs.items()}}, config.early_stop,
-                         config.repeats, set(jobs), seen)
+        so_far = {**rivals, **{m: combine_runs(r) for m, r in runs.items()}}
+        stopped = beaten(so_far, config.early_stop, config.repeats, set(jobs), seen)
+        if decisive is not None:
+            stopped.update(settled(so_far, decisive, config.repeats, set(jobs) - set(stopped), set(stopped)))
         for m, why in stopped.items():
             if say:
                 say(f"evidence of {m} {why}")
@@ -366,6 +379,49 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
                       f"found for it, which bounds its log evidence from above, is {floor - ceilings[m]:.1f} nats below "
                       f"{leader}'s log evidence, more than {margin:g} nats beyond three standard errors")
     return out
+
+
+#: a decision counts as settled when its margin lies this many standard errors of the difference,
+#: and at least :data:`SETTLED_NATS`, from the decisive line (:func:`settled`)
+SETTLED_SDS = 3.0
+SETTLED_NATS = 1.0
+
+
+def settled(evidences: dict, decisive: tuple[float, float], repeats: int, candidates=None, beaten_=()) -> dict:
+    """Models of ``candidates`` (default all) whose remaining evidence repeats cannot change any
+    decision ``ln B - k sd > nats`` (``decisive`` = (nats, k)) between them and another model of
+    ``evidences`` (those of ``beaten_`` left aside: far behind, their decisions are made), each
+    with the reason.
+
+    A pair's decision is settled when both runs are settled (sd at most :data:`EVIDENCE_SD_MAX`)
+    and its margin ``|ln B| - k sd - nats`` lies more than :data:`SETTLED_SDS` sd (and
+    :data:`SETTLED_NATS`) from zero. Why that cushion: a third repeat moves a mean of two by
+    (x3 - mean) / 3, of sd 0.41 sigma for runs of sd sigma, and a difference of two such means by
+    0.58 sigma; the two-repeat sd of the difference estimates sigma from one degree of freedom
+    each, so it is widened and floored rather than trusted.
+    """
+    out = {}
+    others = [m for m in evidences if m not in beaten_]
+    for m in others:
+        if candidates is not None and m not in candidates:
+            continue
+        margins = [_decision_margin(evidences[m], evidences[k], decisive) for k in others if k != m]
+        if margins and all(abs(margin) > cushion for margin, cushion in margins):
+            nearest = min(abs(margin) - cushion for margin, cushion in margins)
+            out[m] = (f"stopped after {len(evidences[m].runs)} of {repeats} repeats: every decision against the "
+                      f"other models (ln B above {decisive[0]:g} nats by {decisive[1]:g} standard errors) lies at "
+                      f"least {nearest:.1f} nats beyond its cushion, so its remaining repeats could not change one")
+    return out
+
+
+def _decision_margin(a, b, decisive: tuple[float, float]) -> tuple[float, float]:
+    """(|ln B| - k sd - nats, the cushion it must exceed) of evidences ``a`` and ``b`` (``decisive``
+    = (nats, k)); an infinite cushion when either has not settled."""
+    sd = float(np.hypot(a.log_z_sd, b.log_z_sd))
+    if not (a.log_z_sd <= EVIDENCE_SD_MAX and b.log_z_sd <= EVIDENCE_SD_MAX):
+        return 0.0, np.inf
+    nats, sds = decisive
+    return abs(a.log_z - b.log_z) - sds * sd - nats, max(SETTLED_SDS * sd, SETTLED_NATS)
 
 
 def _floor(top) -> float:
@@ -549,8 +605,8 @@ def verdict(ranking, models) -> str:
     stopped = [m for m in ranking if models[m].get("evidence", {}).get("stopped_early")]
     if stopped:
         text.append(f"Evidence repeats stopped early for {', '.join(stopped)}: after the first repeats each was "
-                    "so far behind the leading model that its remaining repeats could not change the ranking "
-                    "(margins under evidence.stopped_early).")
+                    "so far behind the leading model, or every decisive comparison with it so settled, that its "
+                    "remaining repeats could not change the outcome (why under evidence.stopped_early).")
     unsettled = [f"{m} ({why})" for m in ranking if (why := unsettled_evidence(models[m]))]
     if unsettled:
         text.append(f"Not settled: {'; '.join(unsettled)}. The SMC runs of such a model disagree, so "

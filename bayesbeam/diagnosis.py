@@ -454,13 +454,15 @@ def compared(checkpoint, rec, models, config, executor, log, starts=None, rivals
     """:func:`~bayesbeam.comparison.compare`'s (results, summary), a step of ``checkpoint``
     (:mod:`bayesbeam.checkpoint`) named by the models, their starts, the rivals' log evidence and
     the log posterior of each optimum given; its SMC runs are steps of their own, saved as each
-    finishes."""
+    finishes. The comparison knows the diagnosis decides by :data:`DECISIVE`: a model's remaining
+    evidence repeats are skipped once none of those decisions about it can change
+    (:func:`~bayesbeam.comparison.settled`)."""
     inputs = {"models": list(models), "starts": starts or {},
               "rivals": {m: [e.log_z, e.log_z_sd] for m, e in (rivals or {}).items()},
               "optimised": {m: o[1].log_posterior for m, o in (optimised or {}).items()}}
     return checkpoint.step("compare", inputs, lambda: compare(rec, models, config, executor, log, starts=starts,
                                                               rivals=rivals, optimised=optimised,
-                                                              checkpoint=checkpoint))
+                                                              checkpoint=checkpoint, decisive=(DECISIVE, DECISIVE_SD)))
 
 
 def _below(ceiling: float, current) -> str | None:

@@ -183,3 +183,60 @@ def test_the_model_with_the_highest_ceiling_runs_all_its_repeats_in_the_first_wa
     assert len(second) == 1                                      # q1's third repeat
     for m in ("q1", "q3"):
         assert [r.log_z for r in early[m].runs] == [r.log_z for r in full[m].runs]
+
+
+#: the diagnosis's decision: ln B above 5 nats by three standard errors
+DECISIVE = (5.0, 3.0)
+
+
+def pair(log_z_a, log_z_b, half_spread=0.0):
+    """Two evidences of two runs each, at log_z -+ half_spread (sd of the mean = half_spread)."""
+    return {m: combine_runs([run(z - half_spread), run(z + half_spread)]) for m, z in (("q3", log_z_a), ("q1", log_z_b))}
+
+
+def test_a_decision_is_settled_only_beyond_its_cushion_in_nats():
+    """With exact runs (sd 0) the cushion is SETTLED_NATS = 1: q1 6.05 nats behind q3 has margin
+    6.05 - 5 = 1.05 (settled: both stop), 5.95 behind has 0.95 (not), 4.05 behind has -0.95 (not),
+    3.95 behind -1.05 (settled, tied)."""
+    assert sorted(cmp.settled(pair(-765.0, -771.05), DECISIVE, 3)) == ["q1", "q3"]
+    assert cmp.settled(pair(-765.0, -770.95), DECISIVE, 3) == {}
+    assert cmp.settled(pair(-765.0, -769.05), DECISIVE, 3) == {}
+    assert sorted(cmp.settled(pair(-765.0, -768.95), DECISIVE, 3)) == ["q1", "q3"]
+
+
+def test_a_decisions_cushion_grows_with_the_standard_error():
+    """Runs of sd 0.5 each (sd of the difference 0.707): the margin counts three of it and the
+    cushion three more (2.12 nats, above the 1-nat floor). 9.32 nats behind: margin
+    9.32 - 2.12 - 5 = 2.20, settled; 9.12 behind: 2.00, not."""
+    stopped = cmp.settled(pair(-765.0, -774.32, 0.5), DECISIVE, 3)
+    assert sorted(stopped) == ["q1", "q3"] and "2 of 3 repeats" in stopped["q1"] and "0.1 nats" in stopped["q1"]
+    assert cmp.settled(pair(-765.0, -774.12, 0.5), DECISIVE, 3) == {}
+
+
+def test_unsettled_runs_settle_no_decision_and_beaten_models_are_left_aside():
+    """A model whose runs spread by more than EVIDENCE_SD_MAX settles no decision with it, so
+    nobody stops while it counts; left aside as beaten, it does not hold the others back."""
+    evidences = {**pair(-765.0, -780.0), "air": combine_runs([run(-790.0), run(-796.0)])}
+    assert cmp.settled(evidences, DECISIVE, 3) == {}
+    assert sorted(cmp.settled(evidences, DECISIVE, 3, {"q1", "q3"}, {"air"})) == ["q1", "q3"]
+
+
+def test_with_a_decisive_rule_settled_models_run_the_first_wave_only(monkeypatch):
+    """The diagnosis's rule on three models: q1 2 nats behind q3 (tied, settled) and air 15 behind
+    (inside the 20-nat early stop, but decisively behind: settled) all stop after two repeats,
+    the likely leader q3 too; with q1 5.5 behind (its decision against q3 on the line) q1 and q3
+    run their third repeats and air, settled against both, does not. The runs that ran are those
+    of the full path."""
+    ceilings = {"q1": -760.0, "q3": -755.0, "air": -770.0}
+    monkeypatch.setattr(cmp, "smc_job", fake_smc)
+    full, _ = evidences(jobs_for({"q1": -770.5, "q3": -765.0, "air": -780.0}),
+                        CompareConfig(repeats=3, early_stop=None), monkeypatch, rivals={})
+    for q1, more in ((-767.0, []), (-770.5, ["q1", "q3"])):
+        executor = RecordingExecutor()
+        out, stopped = cmp._evidence(jobs_for({"q1": q1, "q3": -765.0, "air": -780.0}), CompareConfig(repeats=3),
+                                     np.random.SeedSequence(4), executor, {}, None, ceilings, decisive=DECISIVE)
+        assert len(executor.waves[0]) == 6
+        assert sorted(m for m, e in out.items() if len(e.runs) == 3) == more
+        assert sorted(stopped) == sorted({"q1", "q3", "air"} - set(more))
+    assert [r.log_z for r in out["q3"].runs] == [r.log_z for r in full["q3"].runs]
+    assert [r.log_z for r in out["air"].runs] == [r.log_z for r in full["air"].runs[:2]]

@@ -746,3 +746,16 @@ def test_a_diagnosis_killed_in_a_round_s_comparison_resumes_to_the_uninterrupted
     resumed = diagnose(rec, "q1", config, checkpoint=tmp_path, resume=True)
     assert compared == [[t.result.name for t in whole.trials]] and not optimised and len(sampled) == 1
     assert _timeless(resumed.to_dict()) == _timeless(whole.to_dict())
+
+
+def test_the_diagnosis_compares_knowing_its_decisive_rule(monkeypatch):
+    """Every comparison of the diagnosis goes through compared(), which tells compare() the rule it
+    decides by (ln B above DECISIVE by DECISIVE_SD standard errors), so that evidence repeats that
+    cannot change one of its decisions are skipped (bayesbeam.comparison.settled)."""
+    import bayesbeam.diagnosis as dg
+    from bayesbeam.checkpoint import NOTHING_SAVED
+
+    seen = {}
+    monkeypatch.setattr(dg, "compare", lambda *args, **options: seen.update(options) or ({}, {}))
+    dg.compared(NOTHING_SAVED, None, ["q1"], None, None, None)
+    assert seen["decisive"] == (dg.DECISIVE, dg.DECISIVE_SD) == (5.0, 3.0)
