@@ -391,7 +391,8 @@ def settled(evidences: dict, decisive: tuple[float, float], repeats: int, candid
     """Models of ``candidates`` (default all) whose remaining evidence repeats cannot change any
     decision ``ln B - k sd > nats`` (``decisive`` = (nats, k)) between them and another model of
     ``evidences`` (those of ``beaten_`` left aside: far behind, their decisions are made), each
-    with the reason.
+    with the reason. A leader whose every rival is beaten has no decision left to change; a model
+    whose own runs have not settled is never settled (its second pass, :func:`settle`, is due).
 
     A pair's decision is settled when both runs are settled (sd at most :data:`EVIDENCE_SD_MAX`)
     and its margin ``|ln B| - k sd - nats`` lies more than :data:`SETTLED_SDS` sd (and
@@ -406,11 +407,12 @@ def settled(evidences: dict, decisive: tuple[float, float], repeats: int, candid
         if candidates is not None and m not in candidates:
             continue
         margins = [_decision_margin(evidences[m], evidences[k], decisive) for k in others if k != m]
-        if margins and all(abs(margin) > cushion for margin, cushion in margins):
-            nearest = min(abs(margin) - cushion for margin, cushion in margins)
-            out[m] = (f"stopped after {len(evidences[m].runs)} of {repeats} repeats: every decision against the "
-                      f"other models (ln B above {decisive[0]:g} nats by {decisive[1]:g} standard errors) lies at "
-                      f"least {nearest:.1f} nats beyond its cushion, so its remaining repeats could not change one")
+        if evidences[m].log_z_sd <= EVIDENCE_SD_MAX and all(abs(margin) > cushion for margin, cushion in margins):
+            nearest = min((abs(margin) - cushion for margin, cushion in margins), default=np.inf)
+            out[m] = (f"stopped after {len(evidences[m].runs)} of {repeats} repeats: " + (
+                f"every decision against the other models (ln B above {decisive[0]:g} nats by {decisive[1]:g} "
+                f"standard errors) lies at least {nearest:.1f} nats beyond its cushion" if margins else
+                "every other model is far behind it") + ", so its remaining repeats could not change a decision")
     return out
 
 

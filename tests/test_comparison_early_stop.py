@@ -209,7 +209,7 @@ def test_a_decisions_cushion_grows_with_the_standard_error():
     cushion three more (2.12 nats, above the 1-nat floor). 9.32 nats behind: margin
     9.32 - 2.12 - 5 = 2.20, settled; 9.12 behind: 2.00, not."""
     stopped = cmp.settled(pair(-765.0, -774.32, 0.5), DECISIVE, 3)
-    assert sorted(stopped) == ["q1", "q3"] and "2 of 3 repeats" in stopped["q1"] and "0.1 nats" in stopped["q1"]
+    assert sorted(stopped) == ["q1", "q3"] and "2 of 3 repeats" in stopped["q1"] and "0.1 nats beyond" in stopped["q1"]
     assert cmp.settled(pair(-765.0, -774.12, 0.5), DECISIVE, 3) == {}
 
 
@@ -240,3 +240,13 @@ def test_with_a_decisive_rule_settled_models_run_the_first_wave_only(monkeypatch
         assert sorted(stopped) == sorted({"q1", "q3", "air"} - set(more))
     assert [r.log_z for r in out["q3"].runs] == [r.log_z for r in full["q3"].runs]
     assert [r.log_z for r in out["air"].runs] == [r.log_z for r in full["air"].runs[:2]]
+
+
+def test_a_leader_with_every_rival_beaten_is_settled_unless_its_own_runs_spread():
+    """The baseline comparison's pattern: every other model beaten, the leader has no decision left
+    and stops after two repeats, in parallel with the others; a leader whose runs spread by more
+    than EVIDENCE_SD_MAX is not (its second pass is due)."""
+    far = combine_runs([run(-2000.0), run(-2000.1)])
+    stopped = cmp.settled({"q3": combine_runs([run(-765.0), run(-765.1)]), "air": far}, DECISIVE, 3, {"q3"}, {"air"})
+    assert list(stopped) == ["q3"] and "far behind" in stopped["q3"]
+    assert cmp.settled({"q3": combine_runs([run(-765.0), run(-768.0)]), "air": far}, DECISIVE, 3, {"q3"}, {"air"}) == {}
