@@ -385,6 +385,8 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
 #: and at least :data:`SETTLED_NATS`, from the decisive line (:func:`settled`)
 SETTLED_SDS = 3.0
 SETTLED_NATS = 1.0
+#: how a reason of :func:`settled` ends (the verdict tells these stops from :func:`beaten`'s)
+SETTLED_WORDS = "could not change a decision"
 
 
 def settled(evidences: dict, decisive: tuple[float, float], repeats: int, candidates=None, beaten_=()) -> dict:
@@ -412,7 +414,7 @@ def settled(evidences: dict, decisive: tuple[float, float], repeats: int, candid
             out[m] = (f"stopped after {len(evidences[m].runs)} of {repeats} repeats: " + (
                 f"every decision against the other models (ln B above {decisive[0]:g} nats by {decisive[1]:g} "
                 f"standard errors) lies at least {nearest:.1f} nats beyond its cushion" if margins else
-                "every other model is far behind it") + ", so its remaining repeats could not change a decision")
+                "every other model is far behind it") + f", so its remaining repeats {SETTLED_WORDS}")
     return out
 
 
@@ -604,11 +606,16 @@ def verdict(ranking, models) -> str:
         if lbf < 3 * sd:
             text.append("That difference is within three standard errors of the evidence estimates: "
                         "more SMC repeats or particles are needed before ranking these two.")
-    stopped = [m for m in ranking if models[m].get("evidence", {}).get("stopped_early")]
-    if stopped:
-        text.append(f"Evidence repeats stopped early for {', '.join(stopped)}: after the first repeats each was "
-                    "so far behind the leading model, or every decisive comparison with it so settled, that its "
-                    "remaining repeats could not change the outcome (why under evidence.stopped_early).")
+    stopped = {m: why for m in ranking if (why := models[m].get("evidence", {}).get("stopped_early"))}
+    behind = [m for m, why in stopped.items() if SETTLED_WORDS not in why]
+    decided = [m for m, why in stopped.items() if SETTLED_WORDS in why]
+    if behind:
+        text.append(f"Evidence repeats stopped early for {', '.join(behind)}: after the first repeats each was "
+                    "so far behind the leading model that its remaining repeats could not change the ranking "
+                    "(margins under evidence.stopped_early).")
+    if decided:
+        text.append(f"Evidence repeats stopped early for {', '.join(decided)}: after the first repeats no decisive "
+                    "comparison with it could change (margins under evidence.stopped_early).")
     unsettled = [f"{m} ({why})" for m in ranking if (why := unsettled_evidence(models[m]))]
     if unsettled:
         text.append(f"Not settled: {'; '.join(unsettled)}. The SMC runs of such a model disagree, so "

@@ -250,3 +250,22 @@ def test_a_leader_with_every_rival_beaten_is_settled_unless_its_own_runs_spread(
     stopped = cmp.settled({"q3": combine_runs([run(-765.0), run(-765.1)]), "air": far}, DECISIVE, 3, {"q3"}, {"air"})
     assert list(stopped) == ["q3"] and "far behind" in stopped["q3"]
     assert cmp.settled({"q3": combine_runs([run(-765.0), run(-768.0)]), "air": far}, DECISIVE, 3, {"q3"}, {"air"}) == {}
+
+
+def test_the_verdict_tells_a_settled_stop_from_a_model_far_behind():
+    """A model stopped because it is far behind is said to be so; one stopped because its decisions
+    are settled (a tied runner-up, or the leader) is not said to be behind."""
+    from bayesbeam.comparison import verdict
+
+    behind = beaten({"q3": combine_runs([run(-765.0), run(-765.1)]), "air": combine_runs([run(-2000.0), run(-2000.1)])},
+                    20.0, 3)["air"]
+    tied = cmp.settled(pair(-765.0, -767.0), DECISIVE, 3)["q1"]
+
+    def entry(log_z, why):
+        return {"mechanisms": ["air"], "effects": [], "probability": 0.5, "log_evidence": log_z, "log_evidence_sd": 0.1,
+                "log_bayes_factor_vs_best": log_z + 765.0, "ppc": {},
+                "evidence": {"repeats": [log_z] * 2, "stopped_early": why}}
+
+    text = verdict(["q3", "q1", "air"], {"q3": entry(-765.0, None), "q1": entry(-767.0, tied), "air": entry(-2000.0, behind)})
+    assert "stopped early for air: after the first repeats each was so far behind" in text
+    assert "stopped early for q1: after the first repeats no decisive comparison with it could change" in text
