@@ -381,10 +381,10 @@ def beaten(evidences: dict, margin: float, repeats: int, candidates=None, ceilin
     return out
 
 
-#: a decision counts as settled when its margin lies this many standard errors of the difference,
-#: and at least :data:`SETTLED_NATS`, from the decisive line (:func:`settled`)
-SETTLED_SDS = 3.0
+#: a decision counts as settled when its margin lies at least this far from the decisive line ...
 SETTLED_NATS = 1.0
+#: ... and holds whatever the remaining repeats give within this many run sds of the mean (:func:`settled`)
+SETTLED_SDS = 3.0
 #: how a reason of :func:`settled` ends (the verdict tells these stops from :func:`beaten`'s)
 SETTLED_WORDS = "could not change a decision"
 
@@ -396,36 +396,68 @@ def settled(evidences: dict, decisive: tuple[float, float], repeats: int, candid
     with the reason. A leader whose every rival is beaten has no decision left to change; a model
     whose own runs have not settled is never settled (its second pass, :func:`settle`, is due).
 
-    A pair's decision is settled when both runs are settled (sd at most :data:`EVIDENCE_SD_MAX`)
-    and its margin ``|ln B| - k sd - nats`` lies more than :data:`SETTLED_SDS` sd (and
-    :data:`SETTLED_NATS`) from zero. Why that cushion: a third repeat moves a mean of two by
-    (x3 - mean) / 3, of sd 0.41 sigma for runs of sd sigma, and a difference of two such means by
-    0.58 sigma; the two-repeat sd of the difference estimates sigma from one degree of freedom
-    each, so it is widened and floored rather than trusted.
+    A pair's decision is settled when both models' runs are settled (sd at most
+    :data:`EVIDENCE_SD_MAX`), its margin ``|ln B| - k sd - nats`` lies :data:`SETTLED_NATS` or more
+    from zero, and keeps its sign when either model, or both, run their remaining repeats at
+    their mean or :data:`SETTLED_SDS` run sds either side of it. Why that: the sd of two runs
+    comes from one degree of freedom, and two runs that agree by chance leave the k sd term
+    small; a third run moves a mean of two by a third of its distance and raises that term by
+    about k times as much again. The run sd is the larger of the model's own and the pooled one
+    of the models compared (their runs come from the same sampler on the same record).
     """
     out = {}
     others = [m for m in evidences if m not in beaten_]
+    spread = pooled_run_sd([evidences[m] for m in others])
     for m in others:
         if candidates is not None and m not in candidates:
             continue
-        margins = [_decision_margin(evidences[m], evidences[k], decisive) for k in others if k != m]
-        if evidences[m].log_z_sd <= EVIDENCE_SD_MAX and all(abs(margin) > cushion for margin, cushion in margins):
-            nearest = min((abs(margin) - cushion for margin, cushion in margins), default=np.inf)
+        margins = [_decision_margin(evidences[m], evidences[k], decisive, repeats, spread) for k in others if k != m]
+        if evidences[m].log_z_sd <= EVIDENCE_SD_MAX and all(margin is not None for margin in margins):
+            nearest = min(margins, default=np.inf)
             out[m] = (f"stopped after {len(evidences[m].runs)} of {repeats} repeats: " + (
                 f"every decision against the other models (ln B above {decisive[0]:g} nats by {decisive[1]:g} "
-                f"standard errors) lies at least {nearest:.1f} nats beyond its cushion" if margins else
+                f"standard errors) lies {nearest:.1f} nats or more from its line and stays on its side whatever "
+                f"the remaining repeats give within {SETTLED_SDS:g} run sds" if margins else
                 "every other model is far behind it") + f", so its remaining repeats {SETTLED_WORDS}")
     return out
 
 
-def _decision_margin(a, b, decisive: tuple[float, float]) -> tuple[float, float]:
-    """(|ln B| - k sd - nats, the cushion it must exceed) of evidences ``a`` and ``b`` (``decisive``
-    = (nats, k)); an infinite cushion when either has not settled."""
-    sd = float(np.hypot(a.log_z_sd, b.log_z_sd))
+def pooled_run_sd(evidences) -> float:
+    """The sd of one SMC run's log Z pooled over the settled ``evidences`` of two runs or more (0 if none)."""
+    variances = [e.log_z_sd**2 * len(e.runs) for e in evidences if len(e.runs) > 1 and e.log_z_sd <= EVIDENCE_SD_MAX]
+    return float(np.sqrt(np.mean(variances))) if variances else 0.0
+
+
+def _decision_margin(a, b, decisive: tuple[float, float], repeats: int, spread: float) -> float | None:
+    """|margin| of the decision between evidences ``a`` and ``b`` (:func:`settled`), or None when it
+    is not settled."""
     if not (a.log_z_sd <= EVIDENCE_SD_MAX and b.log_z_sd <= EVIDENCE_SD_MAX):
-        return 0.0, np.inf
+        return None
+    za, zb = [r.log_z for r in a.runs], [r.log_z for r in b.runs]
+    margin = _margin(za, zb, decisive)
+    if abs(margin) < SETTLED_NATS:
+        return None
+    if any((_margin(x, y, decisive) > 0) != (margin > 0)
+           for x in _with_remaining(za, repeats, spread) for y in _with_remaining(zb, repeats, spread)):
+        return None
+    return abs(margin)
+
+
+def _margin(za: list, zb: list, decisive: tuple[float, float]) -> float:
+    """|ln B| - k sd - nats of two models' run log Zs (``decisive`` = (nats, k)), as :func:`combine_runs` combines them."""
     nats, sds = decisive
-    return abs(a.log_z - b.log_z) - sds * sd - nats, max(SETTLED_SDS * sd, SETTLED_NATS)
+    se = [np.std(z, ddof=1) / np.sqrt(len(z)) for z in (za, zb)]
+    return abs(np.mean(za) - np.mean(zb)) - sds * float(np.hypot(*se)) - nats
+
+
+def _with_remaining(z: list, repeats: int, spread: float) -> list[list]:
+    """``z`` as it is, and with its remaining repeats each at its mean or :data:`SETTLED_SDS` run sds
+    (the larger of ``spread`` and its own) either side of it."""
+    left = repeats - len(z)
+    if left <= 0:
+        return [z]
+    sd = max(spread, float(np.std(z, ddof=1)))
+    return [z] + [z + [float(np.mean(z)) + t * SETTLED_SDS * sd] * left for t in (-1.0, 0.0, 1.0)]
 
 
 def _floor(top) -> float:

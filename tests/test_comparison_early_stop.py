@@ -204,13 +204,17 @@ def test_a_decision_is_settled_only_beyond_its_cushion_in_nats():
     assert sorted(cmp.settled(pair(-765.0, -768.95), DECISIVE, 3)) == ["q1", "q3"]
 
 
-def test_a_decisions_cushion_grows_with_the_standard_error():
-    """Runs of sd 0.5 each (sd of the difference 0.707): the margin counts three of it and the
-    cushion three more (2.12 nats, above the 1-nat floor). 9.32 nats behind: margin
-    9.32 - 2.12 - 5 = 2.20, settled; 9.12 behind: 2.00, not."""
-    stopped = cmp.settled(pair(-765.0, -774.32, 0.5), DECISIVE, 3)
-    assert sorted(stopped) == ["q1", "q3"] and "2 of 3 repeats" in stopped["q1"] and "0.1 nats beyond" in stopped["q1"]
-    assert cmp.settled(pair(-765.0, -774.12, 0.5), DECISIVE, 3) == {}
+def test_a_decision_must_hold_whatever_the_remaining_repeat_gives_within_three_run_sds():
+    """q3 and q1 with exact runs and air's runs 1.2 nats apart: the pooled run sd is
+    sqrt(0.72 / 3) = 0.49. A third run of each at 3 of those sds towards the other moves the
+    difference by 2 x 0.49 and the 3 sd term up by 3 x sqrt(2) x 0.49: the margin falls by
+    6.24 x 0.49 = 3.06 nats. q1 8.2 nats behind q3 (margin 3.2) stays decisively behind whatever
+    the third runs give: settled; 7.9 behind (margin 2.9) could become tied: not settled."""
+    air = combine_runs([run(-799.4), run(-800.6)])
+    stopped = cmp.settled({**pair(-765.0, -773.2), "air": air}, DECISIVE, 3)
+    assert {"q1", "q3"} <= set(stopped) and "2 of 3 repeats" in stopped["q1"] and "3.2 nats or more" in stopped["q1"]
+    assert not {"q1", "q3"} & set(cmp.settled({**pair(-765.0, -772.9), "air": air}, DECISIVE, 3))
+    assert {"q1", "q3"} <= set(cmp.settled(pair(-765.0, -772.9), DECISIVE, 3))     # exact runs alone: settled
 
 
 def test_unsettled_runs_settle_no_decision_and_beaten_models_are_left_aside():
