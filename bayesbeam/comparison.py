@@ -35,7 +35,13 @@ import numpy as np
 from bayesbeam.checkpoint import NOTHING_SAVED
 from bayesbeam.checks.ppc import N_REPLICATES, PASS_P_VALUE, mode_table, posterior_predictive_check
 from bayesbeam.executors import SerialExecutor
-from bayesbeam.inference.evidence import combine_runs, laplace_reference, matched_reference, smc
+from bayesbeam.inference.evidence import (
+    combine_runs,
+    laplace_reference,
+    matched_reference,
+    mean_and_standard_error,
+    smc,
+)
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
 from bayesbeam.inference.results import parameter_unit
 from bayesbeam.inference.screens import bic, laplace_log_evidence, pointwise_matrix, psis_lfo, psis_loo
@@ -444,10 +450,11 @@ def _decision_margin(a, b, decisive: tuple[float, float], repeats: int, spread: 
 
 
 def _margin(za: list, zb: list, decisive: tuple[float, float]) -> float:
-    """|ln B| - k sd - nats of two models' run log Zs (``decisive`` = (nats, k)), as :func:`combine_runs` combines them."""
+    """|ln B| - k sd - nats of two models' run log Zs (``decisive`` = (nats, k)), each combined as
+    :func:`~bayesbeam.inference.evidence.combine_runs` combines runs."""
     nats, sds = decisive
-    se = [np.std(z, ddof=1) / np.sqrt(len(z)) for z in (za, zb)]
-    return abs(np.mean(za) - np.mean(zb)) - sds * float(np.hypot(*se)) - nats
+    (mean_a, se_a), (mean_b, se_b) = mean_and_standard_error(za), mean_and_standard_error(zb)
+    return abs(mean_a - mean_b) - sds * float(np.hypot(se_a, se_b)) - nats
 
 
 def _with_remaining(z: list, repeats: int, spread: float) -> list[list]:

@@ -396,6 +396,11 @@ def matched_reference(priors, evidence: Evidence) -> Reference:
 
 def combine_runs(runs) -> Evidence:
     """Mean log Z over repeats, with the standard error of that mean (needs >= 2 repeats)."""
-    values = np.array([r.log_z for r in runs])
+    return Evidence(*mean_and_standard_error([r.log_z for r in runs]), list(runs))
+
+
+def mean_and_standard_error(values) -> tuple[float, float]:
+    """(mean of the runs' log Z ``values``, its standard error sd / sqrt(n); nan for one run)."""
+    values = np.asarray(values, dtype=float)
     sd = float(np.std(values, ddof=1) / np.sqrt(len(values))) if len(values) > 1 else float("nan")
-    return Evidence(float(np.mean(values)), sd, list(runs))
+    return float(np.mean(values)), sd
