@@ -449,12 +449,18 @@ def _decision_margin(a, b, decisive: tuple[float, float], repeats: int, spread: 
     return abs(margin)
 
 
-def _margin(za: list, zb: list, decisive: tuple[float, float]) -> float:
-    """|ln B| - k sd - nats of two models' run log Zs (``decisive`` = (nats, k)), each combined as
-    :func:`~bayesbeam.inference.evidence.combine_runs` combines runs."""
+def decision_margin(log_bayes_factor: float, sd: float, decisive: tuple[float, float]) -> float:
+    """ln B - k sd - nats (``decisive`` = (nats, k)): positive when a log Bayes factor of standard
+    error ``sd`` is decisive under the caller's rule."""
     nats, sds = decisive
+    return log_bayes_factor - sds * sd - nats
+
+
+def _margin(za: list, zb: list, decisive: tuple[float, float]) -> float:
+    """:func:`decision_margin` of |ln B| between two models' run log Zs, each combined as
+    :func:`~bayesbeam.inference.evidence.combine_runs` combines runs."""
     (mean_a, se_a), (mean_b, se_b) = mean_and_standard_error(za), mean_and_standard_error(zb)
-    return abs(mean_a - mean_b) - sds * float(np.hypot(se_a, se_b)) - nats
+    return decision_margin(abs(mean_a - mean_b), float(np.hypot(se_a, se_b)), decisive)
 
 
 def _with_remaining(z: list, repeats: int, spread: float) -> list[list]:

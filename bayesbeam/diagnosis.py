@@ -75,6 +75,7 @@ from bayesbeam.comparison import (
     CompareConfig,
     ceiling_gap,
     compare,
+    decision_margin,
     expand_model_sets,
     fingerprint,
     left_out_words,
@@ -396,9 +397,9 @@ def recheck_damping(rec, current, effects: tuple, config: DiagnoseConfig, execut
 def decisively_above(upper, lower) -> tuple[float, float, bool]:
     """(ln B, its sd, decisive) of the fitted model ``upper`` against ``lower``: decisive when
     ln B exceeds :data:`DECISIVE` by :data:`DECISIVE_SD` standard errors (the rule that adds an effect)."""
-    lbf = upper.evidence.log_z - lower.evidence.log_z
+    lbf = float(upper.evidence.log_z - lower.evidence.log_z)
     sd = float(np.hypot(upper.evidence.log_z_sd, lower.evidence.log_z_sd))
-    return float(lbf), sd, bool(lbf - DECISIVE_SD * sd > DECISIVE)
+    return lbf, sd, bool(decision_margin(lbf, sd, (DECISIVE, DECISIVE_SD)) > 0)
 
 
 def prune_added(rec, recheck: DampingRecheck, given: tuple, added: tuple, first: dict, config: DiagnoseConfig,
