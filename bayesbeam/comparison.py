@@ -9,7 +9,8 @@ For each model (a preset or ``+``-joined mechanisms, optionally with effects):
    particles of all repeats are the posterior draws (one "chain" per repeat; R-hat across
    repeats is the convergence check). Repeats that spread by more than
    :data:`EVIDENCE_SD_MAX` are run again from a reference fitted to their posterior particles
-   (:func:`settle`). The repeats run in two waves: a model that the first :data:`FIRST_WAVE`
+   (:func:`settle`). A model whose log posterior is rough at its optimum starts its repeats
+   from a reference fitted to a pilot run's particles instead (:func:`piloted`). The repeats run in two waves: a model that the first :data:`FIRST_WAVE`
    repeats already put decisively behind the leader (:data:`EARLY_STOP_NATS`, :func:`beaten`)
    gets no more; its summary says so and why. The model with the highest likelihood at its
    optimum, the likely leader, runs all its repeats in the first wave. A caller that decides by
@@ -40,6 +41,7 @@ from bayesbeam.inference.evidence import (
     laplace_reference,
     matched_reference,
     mean_and_standard_error,
+    pilot_evidence,
     smc,
 )
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
@@ -79,6 +81,9 @@ FIRST_WAVE = 2
 #: repeats understate its spread and the comparison does not settle whether the rule errs low
 #: (benchmarks/compare.py --min-moved 0.85)
 MIN_MOVED = 0.85
+#: seed offset of a rough model's pilot run (:func:`piloted`), apart from its evidence repeats
+#: (offsets 0, and 500 for a second pass)
+PILOT_OFFSET = 900
 
 
 @dataclass
@@ -217,14 +222,8 @@ def compare(rec, models=DEFAULT_MODELS, config: CompareConfig | None = None, exe
                                                          skip=optimised or {})}
     stage1 = [optimised[m] for m in models]
     posteriors = {m: problem.posterior for m, (problem, _, _) in zip(models, stage1)}
-    with progress.stage("evidence (SMC)", len(models) * config.repeats, "run") as bar:
-        evidences, stopped = _evidence({m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta,
-                                                                                optimum.covariance), 0)
-                                        for i, (m, (_, optimum, _)) in enumerate(zip(models, stage1))},
-                                       config, seeds[1], executor, rivals or {}, progress,
-                                       _ceilings(posteriors, stage1), bar, checkpoint, decisive)
-    evidences = settle(evidences, posteriors, config, seeds[1], executor, progress, skip=set(stopped),
-                       checkpoint=checkpoint)
+    evidences, stopped = model_evidence(dict(zip(models, stage1)), config, seeds[1], executor, progress, rivals,
+                                        checkpoint, decisive)
     with progress.stage("predictive checks", len(models), "model") as bar:
         checks = executor.map(check_job, [(posteriors[m], evidences[m].samples.reshape(-1, posteriors[m].ndim),
                                            _seed(seeds[2], i), config.replicates) for i, m in enumerate(models)],
@@ -311,6 +310,59 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
         more = _runs(jobs, left, config, seeds, executor, bar, checkpoint)
         runs = {m: r + more.get(m, []) for m, r in runs.items()}
     return {m: combine_runs(r) for m, r in runs.items()}, stopped
+
+
+def model_evidence(optimised: dict, config: CompareConfig, seeds, executor, progress, rivals: dict | None = None,
+                   checkpoint=NOTHING_SAVED, decisive: tuple[float, float] | None = None) -> tuple[dict, dict]:
+    """(model -> Evidence, model -> why its repeats were stopped) of the models of ``optimised``
+    (model -> (problem, optimum, record), as :func:`optimise_job` returns them; see :func:`compare`
+    for the rest): the SMC runs from each optimum's Laplace reference, or from a pilot's particles
+    where the optimum is rough (:func:`piloted`), stopped early (:func:`_evidence`), and a second
+    pass where they have not settled (:func:`settle`). ``progress``: a Progress."""
+    posteriors = {m: problem.posterior for m, (problem, _, _) in optimised.items()}
+    jobs = {m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta, optimum.covariance), 0)
+            for i, (m, (_, optimum, _)) in enumerate(optimised.items())}
+    jobs, pilots = piloted(jobs, [m for m, (_, optimum, _) in optimised.items() if optimum.rough], config, seeds,
+                           executor, progress, checkpoint)
+    with progress.stage("evidence (SMC)", len(jobs) * config.repeats, "run") as bar:
+        evidences, stopped = _evidence(jobs, config, seeds, executor, rivals or {}, progress,
+                                       _ceilings(posteriors, list(optimised.values())), bar, checkpoint, decisive)
+    evidences = {m: replace(e, pilot=pilots[m]) if m in pilots else e for m, e in evidences.items()}
+    return settle(evidences, posteriors, config, seeds, executor, progress, skip=set(stopped),
+                  checkpoint=checkpoint), stopped
+
+
+def piloted(jobs: dict, rough: list, config: CompareConfig, seeds, executor, log=None,
+            checkpoint=NOTHING_SAVED) -> tuple[dict, dict]:
+    """(``jobs`` with each ``rough`` model's reference replaced by one fitted to a pilot run's
+    particles, model -> its pilot SMCRun). ``jobs``: model -> (index, posterior, reference, seed
+    offset), as :func:`_evidence` takes them; ``rough``: the models whose optimum is rough
+    (:attr:`~bayesbeam.inference.sampler.Optimum.rough`).
+
+    A rough optimum is one of many sharp local maxima (stick-slip friction on a long record), and
+    SMC from a reference centred on it errs low: its moves, at acceptance 0.1-0.2, do not carry the
+    particles to the higher maxima around it before the last stage. On the 8 s friction release of
+    benchmarks/nonlinear_long.py the air, q1 and q3 hosts' runs from the Laplace reference fell 2
+    to 12 nats below runs from a reference fitted to their particles (:func:`settle`'s second
+    pass), by different amounts per model, so that it ranked the three. Each rough model therefore runs one
+    pilot first, from the Laplace reference, under the cheaper :data:`MIN_MOVED` rule (its
+    log Z is not used), and its evidence runs start from the pilot's particles
+    (:func:`~bayesbeam.inference.evidence.matched_reference`).
+    """
+    if not rough:
+        return jobs, {}
+    progress = as_progress(log)
+    progress(f"rough likelihood at the optimum of {', '.join(rough)}: a pilot SMC run each, whose particles "
+             f"centre the reference of its evidence runs")
+    pilot_jobs = {m: (*jobs[m][:3], PILOT_OFFSET) for m in rough}
+    with progress.stage("evidence, pilot runs", len(rough), "run") as bar:
+        runs = _runs(pilot_jobs, {m: range(1) for m in rough}, replace(config, min_moved=MIN_MOVED), seeds,
+                     executor, bar, checkpoint)
+    pilots = {m: runs[m][0] for m in rough}
+    for m, run in pilots.items():
+        i, post, _, offset = jobs[m]
+        jobs = {**jobs, m: (i, post, matched_reference(post.priors, pilot_evidence(run)), offset)}
+    return jobs, pilots
 
 
 def _ceilings(posteriors: dict, stage1) -> dict:

@@ -357,12 +357,14 @@ def _moved_enough(acceptance: float, steps: int, min_accepted: float, min_moved:
 class Evidence:
     """log Z from independent SMC repeats: mean, standard error, and the pooled posterior draws;
     ``first_pass``: the repeats this one replaced, when a first pass had not settled (see
-    :func:`matched_reference`)."""
+    :func:`matched_reference`); ``pilot``: the run whose particles the repeats' reference was
+    fitted to, if any (:func:`bayesbeam.comparison.piloted`)."""
 
     log_z: float
     log_z_sd: float
     runs: list
     first_pass: Evidence | None = None
+    pilot: SMCRun | None = None
 
     @property
     def samples(self) -> np.ndarray:
@@ -376,14 +378,19 @@ class Evidence:
                 "stages": [len(r.betas) - 1 for r in self.runs],
                 "evaluations": int(sum(r.n_evaluations for r in self.runs)),
                 "seconds": float(sum(r.seconds for r in self.runs)),
-                **({} if self.first_pass is None else {"first_pass": self.first_pass.as_dict()})}
+                **({} if self.first_pass is None else {"first_pass": self.first_pass.as_dict()}),
+                **({} if self.pilot is None else {"pilot": {"log_evidence": self.pilot.log_z,
+                                                            "stages": len(self.pilot.betas) - 1,
+                                                            "evaluations": int(self.pilot.n_evaluations),
+                                                            "seconds": float(self.pilot.seconds)}})}
 
 
 def matched_reference(priors, evidence: Evidence) -> Reference:
     """The reference of :func:`laplace_reference` at the mean and covariance of an evidence's pooled
     posterior particles instead of an optimum and its Laplace covariance.
 
-    For a second pass when the first has not settled: SMC corrects a reference's mismatch only as
+    For a second pass when the first has not settled, and after the pilot run of a rough
+    posterior (:func:`bayesbeam.comparison.piloted`): SMC corrects a reference's mismatch only as
     far as its moves keep up with the tempered targets. From a reference far from the posterior
     (an optimum off the mode, a Laplace covariance too narrow) a run needs many stages, its
     particles lag, and log Z errs low, by thousands of nats on the real record's q3 with a sensor
@@ -392,6 +399,12 @@ def matched_reference(priors, evidence: Evidence) -> Reference:
     """
     samples = evidence.samples.reshape(-1, evidence.samples.shape[-1])
     return laplace_reference(priors, samples.mean(axis=0), np.cov(samples, rowvar=False))
+
+
+def pilot_evidence(run: SMCRun) -> Evidence:
+    """One run as an Evidence whose posterior draws :func:`matched_reference` can fit (no standard
+    error: one run has none)."""
+    return Evidence(run.log_z, float("nan"), [run])
 
 
 def combine_runs(runs) -> Evidence:

@@ -102,6 +102,7 @@ class Optimum:
     log_posterior: float
     covariance: np.ndarray     # Laplace covariance in sampling coordinates
     n_evaluations: int
+    rough: bool = False        # the log posterior is rough there along some coordinate (:func:`difference_steps`)
 
 
 def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: int = 321,
@@ -135,15 +136,15 @@ def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: i
         _say(log, f"differential evolution: log posterior {-de.fun:.6g} ({counter.calls} evaluations)")
     if scale is None:
         scale = _search_scale(counter, x0, bounds)
-    full, cov = _polished(post, counter, _nelder_mead(counter, x0, _simplex_edges(scale, bounds)))
+    full, (cov, rough) = _polished(post, counter, _nelder_mead(counter, x0, _simplex_edges(scale, bounds)))
     if start is None and k > 1:
         x = _restart(counter, full[:k], np.sqrt(np.diag(cov)[:k]), bounds)
         if x is not None:
-            full, cov = _polished(post, counter, x)
+            full, (cov, rough) = _polished(post, counter, x)
             _say(log, "restarted polish moved the optimum")
     value = post(full)
     _say(log, f"optimum: log posterior {value:.6g} ({counter.calls} evaluations)")
-    return Optimum(full, value, cov, counter.calls)
+    return Optimum(full, value, cov, counter.calls, rough)
 
 
 def _nelder_mead(counter, x0, edges) -> np.ndarray:
@@ -219,8 +220,9 @@ def _restart(counter, x, sd, bounds) -> np.ndarray | None:
     return best if moved else None
 
 
-def _polished(post: LogPosterior, counter, x) -> tuple[np.ndarray, np.ndarray]:
-    """(full coordinates at model coordinates ``x`` with the noise profiled, Laplace covariance)."""
+def _polished(post: LogPosterior, counter, x) -> tuple[np.ndarray, tuple[np.ndarray, bool]]:
+    """(full coordinates at model coordinates ``x`` with the noise profiled, (Laplace covariance,
+    whether the log posterior is rough there): :func:`laplace_covariance_and_roughness`)."""
     k = len(post.model_names)
     full = post.with_profiled_noise(x)
     if full is None:
@@ -229,7 +231,7 @@ def _polished(post: LogPosterior, counter, x) -> tuple[np.ndarray, np.ndarray]:
                          f"narrow the priors or give the fit window and band explicitly")
     if any(n.startswith("phi_") for n in post.names):
         full = _polish_all(post, full, counter)
-    return full, laplace_covariance(post, full)
+    return full, laplace_covariance_and_roughness(post, full)
 
 
 def _neutral_start(post: LogPosterior) -> np.ndarray:
@@ -398,22 +400,30 @@ def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4
     takes its long step instead of ``step``. Falls back to a diagonal built from the
     curvature along each axis (or 1e-3^2) where the Hessian is not negative definite.
     """
+    return laplace_covariance_and_roughness(post, theta, step)[0]
+
+
+def laplace_covariance_and_roughness(post: LogPosterior, theta: np.ndarray, step: float = 1e-4) -> tuple[np.ndarray, bool]:
+    """(:func:`laplace_covariance`, whether some coordinate is rough there: took the long step of
+    :func:`difference_steps`). A rough optimum is one of many sharp local maxima, so a reference
+    density centred on it is a poor start for SMC (:mod:`bayesbeam.comparison`'s pilot runs)."""
     d = len(theta)
     low, high = _support(post)
     theta = np.where(_near_edge(post, theta, 3 * step), np.clip(theta, low + 3 * step, high - 3 * step), theta)
     theta = _off_constraint(post, theta, 2 * step, 3 * step)
     f0 = post(theta)
     steps = difference_steps(post, theta, step, f0)
+    rough = bool(np.any(steps != step))
     h = _hessian(post, theta, steps)
     if not np.all(np.isfinite(h)):
-        return np.eye(d) * 1e-6
+        return np.eye(d) * 1e-6, rough
     try:
         cov = np.linalg.inv(-h)
         np.linalg.cholesky(cov)
-        return cov
+        return cov, rough
     except np.linalg.LinAlgError:
         diag = _axis_curvatures(post, theta, steps, f0)
-        return np.diag(np.where(diag > 0, 1.0 / np.maximum(diag, 1e-300), 1e-6))
+        return np.diag(np.where(diag > 0, 1.0 / np.maximum(diag, 1e-300), 1e-6)), rough
 
 
 #: the drop of log p (nats) a rough coordinate's long finite-difference step aims for on average

@@ -20,6 +20,7 @@ from bayesbeam.inference.sampler import (
     _simplex_edges,
     find_optimum,
     laplace_covariance,
+    laplace_covariance_and_roughness,
     newton_shift,
     run_emcee,
     unconverged_reason,
@@ -256,6 +257,18 @@ def test_laplace_covariance_sees_through_a_rough_likelihood():
     sds = np.sqrt(np.diag(cov))
     np.testing.assert_allclose(sds, SDS, rtol=0.1)
     assert abs(cov[1, 2] / (sds[1] * sds[2]) - 0.9) < 0.02
+
+
+def test_an_optimum_on_ripples_is_rough_and_a_smooth_one_is_not():
+    """The ripples of 0.5 nats a hundredth of an sd apart make the optimum rough (every coordinate's
+    curvature over the fixed step is the ripple's, orders of magnitude above the Gaussian's); the
+    Gaussian alone is smooth, and its covariance is then exactly :func:`laplace_covariance`'s."""
+    rough = RoughGaussianPosterior([3.8, -2.0, -1.7], COV, amplitude=0.5)
+    assert laplace_covariance_and_roughness(rough, rough.mean)[1]
+    smooth = GaussianPosterior([3.8, -2.0, -1.7], COV)
+    cov, flagged = laplace_covariance_and_roughness(smooth, smooth.mean)
+    assert not flagged
+    np.testing.assert_array_equal(cov, laplace_covariance(smooth, smooth.mean))
 
 
 def test_the_refinement_step_sees_through_a_rough_likelihood():

@@ -1,0 +1,104 @@
+"""Pilot runs of models whose optimum is rough (comparison.piloted, comparison.model_evidence): one
+SMC run from the Laplace reference under the MIN_MOVED rule, whose particles centre the reference
+of the model's evidence runs; smooth models are run exactly as without pilots.
+
+Tolerances. Stand-in runs (no likelihood) make the wiring exact: which runs ran, with which seed
+and rule, is compared for equality. The reference's centre is checked on 20000 of its draws against
+the pilot's particle mean (sd 0.1 per coordinate: standard error of the mean under 0.002, checked
+to 0.01), against the Laplace reference's centre 1.0 and 2.0 away.
+"""
+from types import SimpleNamespace
+
+import numpy as np
+
+import bayesbeam.comparison as cmp
+from bayesbeam.comparison import MIN_MOVED, PILOT_OFFSET, CompareConfig
+from bayesbeam.executors import SerialExecutor
+from bayesbeam.inference.evidence import laplace_reference
+from bayesbeam.inference.priors import Prior
+from bayesbeam.progress import as_progress
+
+PRIORS = [Prior("uniform", -10.0, 10.0)] * 2
+#: where a stand-in posterior's pilot particles lie, and the optimum its Laplace reference is centred on
+CENTRE, OPTIMUM = np.array([1.0, 2.0]), np.zeros(2)
+
+
+class StandIn:
+    """A model's posterior as the evidence step sees it: priors, a dimension, a log prior, and
+    the log Z and particle centre its stand-in SMC runs report."""
+
+    ndim = 2
+    priors = PRIORS
+
+    def __init__(self, log_z):
+        self.log_z = log_z
+
+    def log_prior(self, _theta):
+        return 0.0
+
+
+def recording_smc(calls):
+    def smc_job(args):
+        post, reference, seed, particles, min_moved = args
+        calls.append((post, reference, seed, min_moved))
+        rng = np.random.default_rng(seed)
+        return SimpleNamespace(log_z=post.log_z + 0.1 * rng.standard_normal(), betas=np.array([0.0, 0.5, 1.0]),
+                               particles=CENTRE + 0.1 * rng.standard_normal((particles, 2)),
+                               log_likelihood=np.full(particles, post.log_z + 5.0), n_evaluations=particles,
+                               seconds=0.0)
+    return smc_job
+
+
+def optimised(rough: dict) -> dict:
+    """model -> (problem, optimum, record) with the optimum at OPTIMUM, rough as given."""
+    return {m: (SimpleNamespace(posterior=StandIn(-100.0 - i)),
+                SimpleNamespace(theta=OPTIMUM, covariance=0.01 * np.eye(2), log_posterior=-90.0 - i, rough=r), {})
+            for i, (m, r) in enumerate(rough.items())}
+
+
+def test_a_rough_model_runs_one_pilot_and_its_runs_start_from_the_pilots_particles(monkeypatch):
+    calls = []
+    monkeypatch.setattr(cmp, "smc_job", recording_smc(calls))
+    smooth_post, rough_post = StandIn(-100.0), StandIn(-101.0)
+    laplace = laplace_reference(PRIORS, OPTIMUM, 0.01 * np.eye(2))
+    jobs = {"smooth": (0, smooth_post, laplace, 0), "rough": (1, rough_post, laplace, 0)}
+    seeds = np.random.SeedSequence(4)
+    out, pilots = cmp.piloted(jobs, ["rough"], CompareConfig(), seeds, SerialExecutor())
+    assert out["smooth"] is jobs["smooth"]
+    assert list(pilots) == ["rough"]
+    assert [(post, reference, seed, rule) for post, reference, seed, rule in calls] == \
+        [(rough_post, laplace, cmp._seed(seeds, 1000 + PILOT_OFFSET), MIN_MOVED)]
+    draws = out["rough"][2].sample(np.random.default_rng(0), 20000)
+    np.testing.assert_allclose(draws.mean(axis=0), pilots["rough"].particles.mean(axis=0), atol=0.01)
+    assert out["rough"][:2] == (1, rough_post) and out["rough"][3] == 0
+
+
+def test_without_a_rough_model_no_pilot_runs_and_the_evidence_runs_are_unchanged(monkeypatch):
+    calls = []
+    monkeypatch.setattr(cmp, "smc_job", recording_smc(calls))
+    evidences, _ = cmp.model_evidence(optimised({"q1": False, "q3": False}), CompareConfig(early_stop=None),
+                                      np.random.SeedSequence(4), SerialExecutor(), as_progress(None))
+    assert len(calls) == 6 and all(rule is None for *_, rule in calls)
+    assert all(e.pilot is None and "pilot" not in e.as_dict() for e in evidences.values())
+
+
+def test_the_evidence_of_a_rough_model_records_its_pilot_and_smooth_runs_stay_as_they_were(monkeypatch):
+    smooth_calls, calls = [], []
+    monkeypatch.setattr(cmp, "smc_job", recording_smc(smooth_calls))
+    plain, _ = cmp.model_evidence(optimised({"q1": False, "q3": False}), CompareConfig(early_stop=None),
+                                  np.random.SeedSequence(4), SerialExecutor(), as_progress(None))
+    monkeypatch.setattr(cmp, "smc_job", recording_smc(calls))
+    fits = optimised({"q1": False, "q3": True})
+    evidences, _ = cmp.model_evidence(fits, CompareConfig(early_stop=None), np.random.SeedSequence(4),
+                                      SerialExecutor(), as_progress(None))
+    assert len(calls) == 7 and calls[0][0] is fits["q3"][0].posterior and calls[0][3] == MIN_MOVED
+    assert evidences["q3"].pilot is not None and evidences["q1"].pilot is None
+    assert evidences["q3"].as_dict()["pilot"]["log_evidence"] == evidences["q3"].pilot.log_z
+    assert [r.log_z for r in evidences["q1"].runs] == [r.log_z for r in plain["q1"].runs]
+    assert [r.log_z for r in evidences["q3"].runs] == [r.log_z for r in plain["q3"].runs]
+    for model, centre in (("q1", OPTIMUM), ("q3", CENTRE)):
+        references = [reference for post, reference, _, rule in calls[1:] if post is fits[model][0].posterior]
+        assert len(references) == 3
+        for reference in references:
+            np.testing.assert_allclose(reference.sample(np.random.default_rng(0), 20000).mean(axis=0), centre,
+                                       atol=0.01)
