@@ -10,9 +10,10 @@ For each model (a preset or ``+``-joined mechanisms, optionally with effects):
    repeats is the convergence check). Repeats that spread by more than
    :data:`EVIDENCE_SD_MAX` are run again from a reference fitted to their posterior particles
    (:func:`settle`). A model whose log posterior is rough at its optimum starts its repeats
-   from a reference fitted to a pilot run's particles instead (:func:`piloted`). The repeats run in two waves: a model that the first :data:`FIRST_WAVE`
-   repeats already put decisively behind the leader (:data:`EARLY_STOP_NATS`, :func:`beaten`)
-   gets no more; its summary says so and why. The model with the highest likelihood at its
+   from a reference fitted to a pilot run's particles instead (:func:`piloted`). The repeats
+   run in two waves: a model that the first :data:`FIRST_WAVE` repeats already put decisively
+   behind the leader (:data:`EARLY_STOP_NATS`, :func:`beaten`) gets no more; its summary says so
+   and why. The model with the highest likelihood at its
    optimum, the likely leader, runs all its repeats in the first wave. A caller that decides by
    a decisive log Bayes factor (the diagnosis) names it, ``decisive``: then every model starts
    with the first wave, and one whose every such decision against the others is settled
@@ -322,8 +323,8 @@ def model_evidence(optimised: dict, config: CompareConfig, seeds, executor, prog
     posteriors = {m: problem.posterior for m, (problem, _, _) in optimised.items()}
     jobs = {m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta, optimum.covariance), 0)
             for i, (m, (_, optimum, _)) in enumerate(optimised.items())}
-    jobs, pilots = piloted(jobs, [m for m, (_, optimum, _) in optimised.items() if optimum.rough], config, seeds,
-                           executor, progress, checkpoint)
+    rough = [m for m, (_, optimum, _) in optimised.items() if rough_where_centred(optimum, jobs[m][2])]
+    jobs, pilots = piloted(jobs, rough, config, seeds, executor, progress, checkpoint)
     with progress.stage("evidence (SMC)", len(jobs) * config.repeats, "run") as bar:
         evidences, stopped = _evidence(jobs, config, seeds, executor, rivals or {}, progress,
                                        _ceilings(posteriors, list(optimised.values())), bar, checkpoint, decisive)
@@ -332,12 +333,23 @@ def model_evidence(optimised: dict, config: CompareConfig, seeds, executor, prog
                   checkpoint=checkpoint), stopped
 
 
+def rough_where_centred(optimum, reference) -> bool:
+    """Whether the log posterior is rough at ``optimum`` along a coordinate its Laplace
+    ``reference`` centres there (one the data determine: the Student-t's, or an edge band's); the
+    roughness of a coordinate the reference leaves to its prior does not matter to it."""
+    if optimum.rough is None:
+        return False
+    centred = reference.tight.copy()
+    centred[list(reference.bands)] = True
+    return bool(np.any(np.asarray(optimum.rough) & centred))
+
+
 def piloted(jobs: dict, rough: list, config: CompareConfig, seeds, executor, log=None,
             checkpoint=NOTHING_SAVED) -> tuple[dict, dict]:
     """(``jobs`` with each ``rough`` model's reference replaced by one fitted to a pilot run's
     particles, model -> its pilot SMCRun). ``jobs``: model -> (index, posterior, reference, seed
     offset), as :func:`_evidence` takes them; ``rough``: the models whose optimum is rough
-    (:attr:`~bayesbeam.inference.sampler.Optimum.rough`).
+    (:func:`rough_where_centred`).
 
     A rough optimum is one of many sharp local maxima (stick-slip friction on a long record), and
     SMC from a reference centred on it errs low: its moves, at acceptance 0.1-0.2, do not carry the

@@ -10,6 +10,7 @@ to 0.01), against the Laplace reference's centre 1.0 and 2.0 away.
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 import bayesbeam.comparison as cmp
 from bayesbeam.comparison import MIN_MOVED, PILOT_OFFSET, CompareConfig
@@ -49,10 +50,12 @@ def recording_smc(calls):
     return smc_job
 
 
-def optimised(rough: dict) -> dict:
-    """model -> (problem, optimum, record) with the optimum at OPTIMUM, rough as given."""
+def optimised(rough: dict, sds=(0.1, 0.1)) -> dict:
+    """model -> (problem, optimum, record) with the optimum at OPTIMUM, Laplace sds ``sds``, rough
+    along coordinate 0 where given True."""
     return {m: (SimpleNamespace(posterior=StandIn(-100.0 - i)),
-                SimpleNamespace(theta=OPTIMUM, covariance=0.01 * np.eye(2), log_posterior=-90.0 - i, rough=r), {})
+                SimpleNamespace(theta=OPTIMUM, covariance=np.diag(np.square(sds)), log_posterior=-90.0 - i,
+                                rough=np.array([r, False])), {})
             for i, (m, r) in enumerate(rough.items())}
 
 
@@ -102,3 +105,19 @@ def test_the_evidence_of_a_rough_model_records_its_pilot_and_smooth_runs_stay_as
         for reference in references:
             np.testing.assert_allclose(reference.sample(np.random.default_rng(0), 20000).mean(axis=0), centre,
                                        atol=0.01)
+
+
+def test_roughness_counts_only_along_a_coordinate_the_reference_centres_on_the_optimum():
+    """Rough along coordinate 0: with its Laplace sd 0.1 (the data determine it, prior sd 5.8) the
+    reference centres there and a pilot runs; with sd 10 (left to the prior) none does."""
+    for sd, pilots in ((0.1, 1), (10.0, 0)):
+        calls = []
+        fits = optimised({"q1": True}, sds=(sd, 0.1))
+        optimum = fits["q1"][1]
+        reference = laplace_reference(PRIORS, optimum.theta, optimum.covariance)
+        assert cmp.rough_where_centred(optimum, reference) == bool(pilots)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(cmp, "smc_job", recording_smc(calls))
+            cmp.model_evidence(fits, CompareConfig(early_stop=None), np.random.SeedSequence(4), SerialExecutor(),
+                               as_progress(None))
+        assert sum(rule == MIN_MOVED for *_, rule in calls) == pilots and len(calls) == 3 + pilots

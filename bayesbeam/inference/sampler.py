@@ -102,7 +102,9 @@ class Optimum:
     log_posterior: float
     covariance: np.ndarray     # Laplace covariance in sampling coordinates
     n_evaluations: int
-    rough: bool = False        # the log posterior is rough there along some coordinate (:func:`difference_steps`)
+    #: per coordinate, whether the log posterior is rough along it there (took the long step of
+    #: :func:`difference_steps`); None where not known
+    rough: np.ndarray | None = None
 
 
 def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: int = 321,
@@ -220,9 +222,9 @@ def _restart(counter, x, sd, bounds) -> np.ndarray | None:
     return best if moved else None
 
 
-def _polished(post: LogPosterior, counter, x) -> tuple[np.ndarray, tuple[np.ndarray, bool]]:
+def _polished(post: LogPosterior, counter, x) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
     """(full coordinates at model coordinates ``x`` with the noise profiled, (Laplace covariance,
-    whether the log posterior is rough there): :func:`laplace_covariance_and_roughness`)."""
+    rough coordinates): :func:`laplace_covariance_and_roughness`)."""
     k = len(post.model_names)
     full = post.with_profiled_noise(x)
     if full is None:
@@ -403,17 +405,20 @@ def laplace_covariance(post: LogPosterior, theta: np.ndarray, step: float = 1e-4
     return laplace_covariance_and_roughness(post, theta, step)[0]
 
 
-def laplace_covariance_and_roughness(post: LogPosterior, theta: np.ndarray, step: float = 1e-4) -> tuple[np.ndarray, bool]:
-    """(:func:`laplace_covariance`, whether some coordinate is rough there: took the long step of
-    :func:`difference_steps`). A rough optimum is one of many sharp local maxima, so a reference
-    density centred on it is a poor start for SMC (:mod:`bayesbeam.comparison`'s pilot runs)."""
+def laplace_covariance_and_roughness(post: LogPosterior, theta: np.ndarray,
+                                     step: float = 1e-4) -> tuple[np.ndarray, np.ndarray]:
+    """(:func:`laplace_covariance`, per coordinate whether it took the long step of
+    :func:`difference_steps`). Along a coordinate the data determine, that marks an optimum that
+    is one of many sharp local maxima, a poor centre for SMC's reference density
+    (:func:`bayesbeam.comparison.piloted`); along one they do not, a posterior far from a
+    Gaussian over six sds (a damping term flat down to its prior bound)."""
     d = len(theta)
     low, high = _support(post)
     theta = np.where(_near_edge(post, theta, 3 * step), np.clip(theta, low + 3 * step, high - 3 * step), theta)
     theta = _off_constraint(post, theta, 2 * step, 3 * step)
     f0 = post(theta)
     steps = difference_steps(post, theta, step, f0)
-    rough = bool(np.any(steps != step))
+    rough = steps != step
     h = _hessian(post, theta, steps)
     if not np.all(np.isfinite(h)):
         return np.eye(d) * 1e-6, rough

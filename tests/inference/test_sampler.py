@@ -260,14 +260,16 @@ def test_laplace_covariance_sees_through_a_rough_likelihood():
 
 
 def test_an_optimum_on_ripples_is_rough_and_a_smooth_one_is_not():
-    """The ripples of 0.5 nats a hundredth of an sd apart make the optimum rough (every coordinate's
-    curvature over the fixed step is the ripple's, orders of magnitude above the Gaussian's); the
-    Gaussian alone is smooth, and its covariance is then exactly :func:`laplace_covariance`'s."""
+    """The ripples of 0.5 nats a hundredth of an sd apart make the optimum rough along the
+    coordinates of sd 1e-2 and 0.3 (their curvature over the fixed step of 1e-4 is the ripple's,
+    orders of magnitude above the Gaussian's), not along the one of sd 1e-5, which the fixed step
+    already oversteps by ten sds; the Gaussian alone is smooth, and its covariance is then
+    exactly :func:`laplace_covariance`'s."""
     rough = RoughGaussianPosterior([3.8, -2.0, -1.7], COV, amplitude=0.5)
-    assert laplace_covariance_and_roughness(rough, rough.mean)[1]
+    assert laplace_covariance_and_roughness(rough, rough.mean)[1].tolist() == [False, True, True]
     smooth = GaussianPosterior([3.8, -2.0, -1.7], COV)
     cov, flagged = laplace_covariance_and_roughness(smooth, smooth.mean)
-    assert not flagged
+    assert flagged.tolist() == [False, False, False]
     np.testing.assert_array_equal(cov, laplace_covariance(smooth, smooth.mean))
 
 
