@@ -121,3 +121,49 @@ def test_roughness_counts_only_along_a_coordinate_the_reference_centres_on_the_o
             cmp.model_evidence(fits, CompareConfig(early_stop=None), np.random.SeedSequence(4), SerialExecutor(),
                                as_progress(None))
         assert sum(rule == MIN_MOVED for *_, rule in calls) == pilots and len(calls) == 3 + pilots
+
+
+class RippledGaussian:
+    """A posterior with an analytic evidence and many sharp local maxima: uniform priors on
+    [-10, 10]^2 and the likelihood exp(-|r / s|^2 / 2 + A sum_i cos(2 pi r_i / p_i)), r = theta -
+    MEAN, ripple periods p = s / 10. Per coordinate the integral of the likelihood is
+    s sqrt(2 pi) I0(A) (the Fourier series exp(A cos x) = I0(A) + 2 sum_n I_n(A) cos(n x); the
+    Gaussian's transform kills every n >= 1 term, by exp(-(20 pi n)^2 / 2)), so
+    log Z = sum_i log(s_i sqrt(2 pi) I0(A)) - log 400."""
+
+    MEAN, SDS, AMPLITUDE = np.array([0.5, -1.0]), np.array([0.02, 0.3]), 1.0
+    priors = PRIORS
+    ndim = 2
+
+    def terms(self, theta):
+        r = np.asarray(theta) - self.MEAN
+        ripple = self.AMPLITUDE * np.sum(np.cos(2 * np.pi * r / (self.SDS / 10)))
+        return -np.log(400.0), float(-0.5 * np.sum((r / self.SDS) ** 2) + ripple)
+
+    def __call__(self, theta):
+        return sum(self.terms(theta))
+
+    def log_z(self):
+        from scipy.special import i0
+        return float(np.sum(np.log(self.SDS * np.sqrt(2 * np.pi) * i0(self.AMPLITUDE))) - np.log(400.0))
+
+
+def test_on_a_rippled_posterior_the_piloted_evidence_matches_the_analytic_value():
+    """From a ripple crest two sds off the centre, where the finite differences find the optimum
+    rough, the pilot's particles centre the reference of three repeats whose mean log Z lies within
+    0.3 nats of the analytic value: the runs spread by about 0.15 nats (seeds 7-9), so the mean's
+    standard error is about 0.09 and 0.3 nats over three of them, while a 10 % error in I0(A) per
+    coordinate moves the truth by 0.19 and in the prior's area (400) by 0.1 each: a test of the
+    whole path, not of one constant. (Here SMC from the Laplace reference also lands within 0.3:
+    in two dimensions the ripples of 2 nats do not trap its moves, as a long friction record's do.)"""
+    from bayesbeam.inference.sampler import laplace_covariance_and_roughness
+
+    post = RippledGaussian()
+    crest = post.MEAN + 2 * post.SDS
+    covariance, rough = laplace_covariance_and_roughness(post, crest)
+    reference = laplace_reference(PRIORS, crest, covariance)
+    assert cmp.rough_where_centred(SimpleNamespace(rough=rough), reference)
+    jobs, _ = cmp.piloted({"rippled": (0, post, reference, 0)}, ["rippled"], CompareConfig(),
+                               np.random.SeedSequence(7), SerialExecutor())
+    evidences, _ = cmp._evidence(jobs, CompareConfig(early_stop=None), np.random.SeedSequence(7), SerialExecutor())
+    assert abs(evidences["rippled"].log_z - post.log_z()) < 0.3, (evidences["rippled"].log_z, post.log_z())
