@@ -353,10 +353,10 @@ def piloted(jobs: dict, rough: list, config: CompareConfig, seeds, executor, log
 
     A rough optimum is one of many sharp local maxima (stick-slip friction on a long record), and
     SMC from a reference centred on it errs low: its moves, at acceptance 0.1-0.2, do not carry the
-    particles to the higher maxima around it before the last stage. On the 8 s friction release of
-    benchmarks/nonlinear_long.py the air, q1 and q3 hosts' runs from the Laplace reference fell 2
-    to 12 nats below runs from a reference fitted to their particles (:func:`settle`'s second
-    pass), by different amounts per model, so that it ranked the three. Each rough model therefore runs one
+    particles to the higher maxima around it before the last stage. It errs by different amounts
+    per model: on the 8 s friction release of benchmarks/nonlinear_long.py, by enough to rank the
+    air, q1 and q3 hosts, which runs from a reference fitted to their particles (:func:`settle`'s
+    second pass) find tied. Each rough model therefore runs one
     pilot first, from the Laplace reference, under the cheaper :data:`MIN_MOVED` rule (its
     log Z is not used), and its evidence runs start from the pilot's particles
     (:func:`~bayesbeam.inference.evidence.matched_reference`).
