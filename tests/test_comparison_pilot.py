@@ -167,3 +167,15 @@ def test_on_a_rippled_posterior_the_piloted_evidence_matches_the_analytic_value(
                                np.random.SeedSequence(7), SerialExecutor())
     evidences, _ = cmp._evidence(jobs, CompareConfig(early_stop=None), np.random.SeedSequence(7), SerialExecutor())
     assert abs(evidences["rippled"].log_z - post.log_z()) < 0.3, (evidences["rippled"].log_z, post.log_z())
+
+
+def test_a_determined_coordinate_against_its_prior_edge_counts_as_centred():
+    """An optimum 0.05 from the prior's lower edge with a Laplace sd of 0.1 (determined, but not
+    three sds inside): the reference gives that coordinate an edge band, not the Student-t, and
+    roughness along it still runs a pilot; along the other, left to the prior (sd 10), it does not."""
+    optimum = SimpleNamespace(theta=np.array([-9.95, 0.0]), covariance=np.diag([0.01, 100.0]),
+                              rough=np.array([True, False]))
+    reference = laplace_reference(PRIORS, optimum.theta, optimum.covariance)
+    assert list(reference.bands) == [0] and not reference.tight.any()
+    assert cmp.rough_where_centred(optimum, reference)
+    assert not cmp.rough_where_centred(SimpleNamespace(rough=np.array([False, True])), reference)
