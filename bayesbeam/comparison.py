@@ -42,7 +42,6 @@ from bayesbeam.inference.evidence import (
     laplace_reference,
     matched_reference,
     mean_and_standard_error,
-    pilot_evidence,
     smc,
 )
 from bayesbeam.inference.fit import FitConfig, choose_discretisation
@@ -371,10 +370,9 @@ def piloted(jobs: dict, rough: list, config: CompareConfig, seeds, executor, log
         runs = _runs(pilot_jobs, {m: range(1) for m in rough}, replace(config, min_moved=MIN_MOVED), seeds,
                      executor, bar, checkpoint)
     pilots = {m: runs[m][0] for m in rough}
-    for m, run in pilots.items():
-        i, post, _, offset = jobs[m]
-        jobs = {**jobs, m: (i, post, matched_reference(post.priors, pilot_evidence(run)), offset)}
-    return jobs, pilots
+    matched = {m: (i, post, matched_reference(post.priors, combine_runs([pilots[m]])), offset)
+               for m, (i, post, _, offset) in jobs.items() if m in pilots}
+    return {**jobs, **matched}, pilots
 
 
 def _ceilings(posteriors: dict, stage1) -> dict:

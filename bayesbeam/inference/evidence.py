@@ -401,14 +401,9 @@ def matched_reference(priors, evidence: Evidence) -> Reference:
     return laplace_reference(priors, samples.mean(axis=0), np.cov(samples, rowvar=False))
 
 
-def pilot_evidence(run: SMCRun) -> Evidence:
-    """One run as an Evidence whose posterior draws :func:`matched_reference` can fit (no standard
-    error: one run has none)."""
-    return Evidence(run.log_z, float("nan"), [run])
-
-
 def combine_runs(runs) -> Evidence:
-    """Mean log Z over repeats, with the standard error of that mean (needs >= 2 repeats)."""
+    """Mean log Z over repeats, with the standard error of that mean (nan for a single run, such as
+    a pilot whose particles :func:`matched_reference` fits)."""
     return Evidence(*mean_and_standard_error([r.log_z for r in runs]), list(runs))
 
 
