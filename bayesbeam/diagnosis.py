@@ -274,7 +274,8 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
     ceilings = {}                   # hosts not sampled: model -> its optimum's log likelihood
     first = first_fits(results, damping, effects)
     for round_ in range(1, config.rounds + 1):
-        ranking = rank_effects(current.problem.posterior, _draws(current), mismatch, config.catalogue, executor)
+        ranking = rank_effects(current.problem.posterior, _draws(current), mismatch, config.catalogue, executor,
+                               quiet=not beam_regions(mismatch))
         rankings.append(ranking)
         if not beam_regions(mismatch) and ranking.p_value >= ALPHA and not pickup_supported(ranking):
             say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")

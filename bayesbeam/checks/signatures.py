@@ -261,12 +261,16 @@ class Ranking:
 
 
 # ---------------------------------------------------------------------------- entry point
-def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None, executor=None) -> Ranking:
+def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None, executor=None,
+                 quiet: bool = False) -> Ranking:
     """Rank the catalogue ``effects`` (default: all not already in the model) for ``mismatch``.
 
     ``executor`` (:mod:`bayesbeam.executors`; None: one after another) fits the candidates side by
     side: each is a scan of its own augmented model, independent of the others, and on a model
-    with a nonlinear effect each scan simulates hundreds of times."""
+    with a nonlinear effect each scan simulates hundreds of times. ``quiet``: the map flags no
+    beam-physics region; then, if the projected mismatch is insignificant and no pickup line is
+    supported, nothing is left to explain whatever the beam effects' scans give, and they are not
+    run (the ranking holds the line candidates alone, at the level the whole screen would set)."""
     model = posterior.likelihood.model
     names = [e for e in (effects or catalogue.REGISTRY) if e not in {x.name for x in model.effects}]
     lines = [e for e in names if e in LINE_EFFECTS]
@@ -286,10 +290,15 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None,
     p0 = space.p_value(space.chi2_0, dof)
     screened = [(name, aug, p) for name, aug in augmented.items() for p in _screened(aug, name)]
     level = ALPHA / max(len(screened) + len(lines), 1)
+    line_candidates = [_line_candidate(model, mismatch, space, level) for _ in lines]
+    if quiet and p0 >= ALPHA and not any(c.supported for c in line_candidates):
+        why = (f"the map flags no beam-physics region, the projected mismatch is insignificant and no pickup "
+               f"line is supported: nothing is left to explain, and the {len(screened)} beam-effect signature(s) "
+               f"were not scanned")
+        return Ranking(line_candidates, space.chi2_0, dof, p0, [_mismatch_note(space.chi2_0, dof, p0), why])
     jobs = [(name, aug, parameter, posterior, theta, base_features, space, mismatch, level)
             for name, aug, parameter in screened]
-    found = (list((executor.map if executor is not None else map)(_candidate_job, jobs))
-             + [_line_candidate(model, mismatch, space, level) for _ in lines])
+    found = list((executor.map if executor is not None else map)(_candidate_job, jobs)) + line_candidates
     found.sort(key=lambda c: (not c.supported, -c.delta_chi2))
     if len(found) > 1 and found[0].predicted:
         found[0].reasoning += _contrast(found[0], found[1], mismatch)
@@ -824,8 +833,12 @@ def _contrast(best: Candidate, other: Candidate, mismatch) -> str:
             f"(delta chi2 = {other.delta_chi2:.3g}){there}.")
 
 
+def _mismatch_note(chi2_0, dof, p0) -> str:
+    return f"projected mismatch chi2 = {chi2_0:.3g} on {dof} degrees of freedom (p = {p0:.2g})"
+
+
 def _ranking_notes(found, chi2_0, dof, p0) -> list[str]:
-    notes = [f"projected mismatch chi2 = {chi2_0:.3g} on {dof} degrees of freedom (p = {p0:.2g})"]
+    notes = [_mismatch_note(chi2_0, dof, p0)]
     if any(c.supported for c in found):
         best = found[0]
         notes.append(f"best candidate: {best.label} ({best.explained:.0%} of the mismatch)")

@@ -65,6 +65,8 @@ def test_a_concealed_effect_is_named_added_and_its_truth_covered(executor, effec
     assert abs(d.final_mismatch.rms_standardized_residual - 1) < RMS_TOLERANCE
     assert summary["final"]["model"] == f"q1+{effect}"
     assert summary["final"]["log_evidence"] > summary["baseline"]["log_evidence"]
+    # the last round found nothing left: its screen scanned the pickup line alone
+    assert "not scanned" in d.rankings[-1].notes[-1]
 
 
 @pytest.mark.parametrize("displacement", [False, True], ids=["tip_accelerometer", "with_displacement"])
@@ -73,6 +75,8 @@ def test_nothing_is_fitted_added_or_left_unexplained_on_a_null_recording(executo
     (so no candidate is fitted), and the latent force stays within the force channel's noise."""
     d = _diagnosed(None, displacement, executor)
     assert d.added == [] and d.trials == [] and not d.unexplained, d.to_dict()["summary"]
+    # nothing to explain in round 1: the beam effects' signatures are not scanned
+    assert len(d.rankings) == 1 and [c.effect for c in d.rankings[0].candidates] == ["mains_lines"]
     assert d.negligible() == [] and flags(d.baseline_mismatch) == 0
     assert abs(d.baseline_mismatch.rms_standardized_residual - 1) < RMS_TOLERANCE
     assert not d.baseline_mismatch.phase["force"]["significant"]

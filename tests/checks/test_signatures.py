@@ -133,6 +133,26 @@ def test_null_recording_names_no_effect():
     assert "no effect is needed" in " ".join(result.notes)
 
 
+def test_a_quiet_insignificant_mismatch_scans_no_beam_effect():
+    """With ``quiet`` (the map flags no beam-physics region) and an insignificant projected mismatch
+    the screen scans only the pickup line, which decides alone whether anything is left to explain:
+    the same mismatch statistic and the same line candidate as the whole screen's (same level)."""
+    quiet = rank_effects(*fitted("null"), quiet=True)
+    whole = ranking("null")
+    line = next(c for c in whole.candidates if c.effect == "mains_lines")
+    assert [c.to_dict() for c in quiet.candidates] == [line.to_dict()]
+    assert (quiet.chi2, quiet.dof, quiet.p_value) == (whole.chi2, whole.dof, whole.p_value)
+    assert quiet.notes[0] == whole.notes[0] and "not scanned" in quiet.notes[-1]
+
+
+def test_a_significant_mismatch_is_screened_whole_on_a_quiet_map():
+    """A significant projected mismatch is scanned whole whatever the map flags (a delay, which the
+    map's regions may not show: the screen is what names it)."""
+    quiet = rank_effects(*fitted("measurement_delay"), quiet=True)
+    assert quiet.p_value < 0.01
+    assert [c.to_dict() for c in quiet.candidates] == [c.to_dict() for c in ranking("measurement_delay").candidates]
+
+
 def test_an_executor_fits_the_candidates_side_by_side_with_the_serial_result():
     """The candidates' scans are independent and deterministic: fitted on two processes they are
     the serial screen's, in its order, to the last digit."""
