@@ -10,7 +10,8 @@ For each model (a preset or ``+``-joined mechanisms, optionally with effects):
    repeats is the convergence check). Repeats that spread by more than
    :data:`EVIDENCE_SD_MAX` are run again from a reference fitted to their posterior particles
    (:func:`settle`). A model whose log posterior is rough at its optimum starts its repeats
-   from a reference fitted to a pilot run's particles instead (:func:`piloted`). The repeats
+   from a reference fitted to a pilot run's particles instead (:func:`piloted`; the pilots run in
+   one wave with the other models' first repeats). The repeats
    run in two waves: a model that the first :data:`FIRST_WAVE` repeats already put decisively
    behind the leader (:data:`EARLY_STOP_NATS`, :func:`beaten`) gets no more; its summary says so
    and why. The model with the highest likelihood at its
@@ -272,9 +273,26 @@ def left_out_words(left_out: dict) -> str:
     return " ".join(f"{m} was left out: {why}" for m, why in left_out.items())
 
 
+def _stops_early(config: CompareConfig, rivals: dict | None) -> bool:
+    """Whether :func:`_evidence` may stop a model's repeats after the first wave."""
+    return rivals is not None and config.early_stop is not None and config.repeats > FIRST_WAVE
+
+
+def _first_wave(jobs, config: CompareConfig, rivals: dict | None = None, ceilings: dict | None = None,
+                decisive: tuple[float, float] | None = None) -> dict:
+    """model -> the repeats :func:`_evidence` runs first (its arguments): :data:`FIRST_WAVE` of
+    them when it may stop early (all of them for the likely leader when ``decisive`` is None),
+    else all."""
+    early = _stops_early(config, rivals)
+    first = FIRST_WAVE if early else config.repeats
+    favourite = (max(jobs, key=lambda m: ceilings.get(m, -np.inf))
+                 if early and ceilings and decisive is None else None)
+    return {m: range(config.repeats if m == favourite else first) for m in jobs}
+
+
 def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict | None = None,
               say=None, ceilings: dict | None = None, bar=None, checkpoint=NOTHING_SAVED,
-              decisive: tuple[float, float] | None = None) -> tuple[dict, dict]:
+              decisive: tuple[float, float] | None = None, done: dict | None = None) -> tuple[dict, dict]:
     """(Evidence per model, why each stopped model was stopped): ``config.repeats`` SMC runs per
     model, combined. ``jobs`` maps a model to (its index, its posterior, the reference, a seed
     offset); a run's seed is ``(index * 1000 + offset + repeat)``, so a repeat's run is the same
@@ -284,13 +302,14 @@ def _evidence(jobs: dict, config: CompareConfig, seeds, executor, rivals: dict |
     model with the highest ceiling, the likely leader, runs all its repeats in the first wave: a
     leader is never stopped, and its last repeat would otherwise run alone while the other
     workers wait. With ``decisive`` (see :func:`compare`), the models :func:`settled` get no
-    more either, and the likely leader too starts with the first wave (it is usually settled)."""
-    early = rivals is not None and config.early_stop is not None and config.repeats > FIRST_WAVE
-    first = FIRST_WAVE if early else config.repeats
-    favourite = (max(jobs, key=lambda m: ceilings.get(m, -np.inf))
-                 if early and ceilings and decisive is None else None)
-    runs = _runs(jobs, {m: range(config.repeats if m == favourite else first) for m in jobs},
-                 config, seeds, executor, bar, checkpoint)
+    more either, and the likely leader too starts with the first wave (it is usually settled).
+    ``done``: model -> runs of its first repeats already run (:func:`piloted`), not run again."""
+    early = _stops_early(config, rivals)
+    done = done or {}
+    plan = _first_wave(jobs, config, rivals, ceilings, decisive)
+    new = _runs(jobs, {m: range(len(done.get(m, ())), plan[m].stop) for m in jobs}, config, seeds, executor, bar,
+                checkpoint)
+    runs = {m: list(done.get(m, ())) + new[m] for m in jobs}
     stopped = {}
     if early:
         # the highest log likelihood seen, at the optimum or on any particle: an optimum left in a
@@ -323,10 +342,13 @@ def model_evidence(optimised: dict, config: CompareConfig, seeds, executor, prog
     jobs = {m: (i, posteriors[m], laplace_reference(posteriors[m].priors, optimum.theta, optimum.covariance), 0)
             for i, (m, (_, optimum, _)) in enumerate(optimised.items())}
     rough = [m for m, (_, optimum, _) in optimised.items() if rough_where_centred(optimum, jobs[m][2])]
-    jobs, pilots = piloted(jobs, rough, config, seeds, executor, progress, checkpoint)
-    with progress.stage("evidence (SMC)", len(jobs) * config.repeats, "run") as bar:
-        evidences, stopped = _evidence(jobs, config, seeds, executor, rivals or {}, progress,
-                                       _ceilings(posteriors, list(optimised.values())), bar, checkpoint, decisive)
+    ceilings = _ceilings(posteriors, list(optimised.values()))
+    plan = _first_wave(jobs, config, rivals or {}, ceilings, decisive)
+    jobs, pilots, done = piloted(jobs, rough, config, seeds, executor, progress, checkpoint,
+                                 alongside={m: plan[m] for m in jobs if m not in rough})
+    with progress.stage("evidence (SMC)", len(jobs) * config.repeats - sum(map(len, done.values())), "run") as bar:
+        evidences, stopped = _evidence(jobs, config, seeds, executor, rivals or {}, progress, ceilings, bar,
+                                       checkpoint, decisive, done)
     evidences = {m: replace(e, pilot=pilots[m]) if m in pilots else e for m, e in evidences.items()}
     return settle(evidences, posteriors, config, seeds, executor, progress, skip=set(stopped),
                   checkpoint=checkpoint), stopped
@@ -344,11 +366,13 @@ def rough_where_centred(optimum, reference) -> bool:
 
 
 def piloted(jobs: dict, rough: list, config: CompareConfig, seeds, executor, log=None,
-            checkpoint=NOTHING_SAVED) -> tuple[dict, dict]:
+            checkpoint=NOTHING_SAVED, alongside: dict | None = None) -> tuple[dict, dict, dict]:
     """(``jobs`` with each ``rough`` model's reference replaced by one fitted to a pilot run's
-    particles, model -> its pilot SMCRun). ``jobs``: model -> (index, posterior, reference, seed
-    offset), as :func:`_evidence` takes them; ``rough``: the models whose optimum is rough
-    (:func:`rough_where_centred`).
+    particles, model -> its pilot SMCRun, model -> the runs of ``alongside``). ``jobs``: model ->
+    (index, posterior, reference, seed offset), as :func:`_evidence` takes them; ``rough``: the
+    models whose optimum is rough (:func:`rough_where_centred`); ``alongside``: model (not rough)
+    -> repeats to run in the same wave, after the pilots (the first wave of the others: a wave of
+    a few long pilots would leave workers idle).
 
     A rough optimum is one of many sharp local maxima (stick-slip friction on a long record), and
     SMC from a reference centred on it errs low: its moves, at acceptance 0.1-0.2, do not carry the
@@ -361,18 +385,20 @@ def piloted(jobs: dict, rough: list, config: CompareConfig, seeds, executor, log
     (:func:`~bayesbeam.inference.evidence.matched_reference`).
     """
     if not rough:
-        return jobs, {}
+        return jobs, {}, {}
     progress = as_progress(log)
     progress(f"rough likelihood at the optimum of {', '.join(rough)}: a pilot SMC run each, whose particles "
              f"centre the reference of its evidence runs")
-    pilot_jobs = {m: (*jobs[m][:3], PILOT_OFFSET) for m in rough}
-    with progress.stage("evidence, pilot runs", len(rough), "run") as bar:
-        runs = _runs(pilot_jobs, {m: range(1) for m in rough}, replace(config, min_moved=MIN_MOVED), seeds,
-                     executor, bar, checkpoint)
-    pilots = {m: runs[m][0] for m in rough}
+    pilot_tasks = _smc_tasks({m: (*jobs[m][:3], PILOT_OFFSET) for m in rough}, {m: range(1) for m in rough},
+                             replace(config, min_moved=MIN_MOVED), seeds)
+    other_tasks = _smc_tasks(jobs, alongside or {}, config, seeds)
+    with progress.stage("evidence, pilot runs" + (" and the others' first runs" if other_tasks else ""),
+                        len(pilot_tasks) + len(other_tasks), "run") as bar:
+        runs = _run_tasks(pilot_tasks + other_tasks, executor, bar, checkpoint)
+    pilots = {m: run for (m, _), run in zip(pilot_tasks, runs)}
     matched = {m: (i, post, matched_reference(post.priors, combine_runs([pilots[m]])), offset)
                for m, (i, post, _, offset) in jobs.items() if m in pilots}
-    return {**jobs, **matched}, pilots
+    return {**jobs, **matched}, pilots, _by_model(other_tasks, runs[len(pilot_tasks):], alongside or {})
 
 
 def _ceilings(posteriors: dict, stage1) -> dict:
@@ -389,22 +415,35 @@ def optimum_log_likelihood(posterior, optimum) -> float:
 def _runs(jobs: dict, repeats: dict, config: CompareConfig, seeds, executor, bar=None,
           checkpoint=NOTHING_SAVED) -> dict:
     """The SMC runs of each model's ``repeats`` (model -> repeat indices) for the models of
-    ``jobs`` (see :func:`_evidence`), those of the model with the most first; each a step of
-    ``checkpoint`` named by the model, its seed, the particles and the reference density."""
-    args, owners = [], []
+    ``jobs`` (see :func:`_evidence`), in one wave (:func:`_run_tasks`)."""
+    tasks = _smc_tasks(jobs, repeats, config, seeds)
+    return _by_model(tasks, _run_tasks(tasks, executor, bar, checkpoint), repeats)
+
+
+def _smc_tasks(jobs: dict, repeats: dict, config: CompareConfig, seeds) -> list[tuple[str, tuple]]:
+    """(model, :func:`smc_job`'s arguments) of each model's ``repeats``, those of the model with the most first."""
+    tasks = []
     for m in sorted(repeats, key=lambda m: -len(repeats[m])):
         i, post, reference, offset = jobs[m]
         particles = config.particles or max(128, 32 * post.ndim)
-        for r in repeats[m]:
-            args.append((post, reference, _seed(seeds, i * 1000 + offset + r), particles, config.min_moved))
-            owners.append(m)
+        tasks += [(m, (post, reference, _seed(seeds, i * 1000 + offset + r), particles, config.min_moved))
+                  for r in repeats[m]]
+    return tasks
 
+
+def _run_tasks(tasks: list, executor, bar=None, checkpoint=NOTHING_SAVED) -> list:
+    """The SMC runs of ``tasks`` (:func:`_smc_tasks`), in order, in one map of ``executor``; each a
+    step of ``checkpoint`` named by the model, its seed, the particles and the reference density."""
     def inputs(k):
-        _, reference, seed, particles, min_moved = args[k]
-        return {"model": owners[k], "seed": seed, "particles": particles, "min_moved": min_moved,
+        model, (_, reference, seed, particles, min_moved) = tasks[k]
+        return {"model": model, "seed": seed, "particles": particles, "min_moved": min_moved,
                 "reference": _reference_key(reference)}
-    runs = checkpoint.map(executor, smc_job, args, inputs, bar=bar) if args else []
-    return {m: [run for run, o in zip(runs, owners) if o == m] for m in repeats}
+    return checkpoint.map(executor, smc_job, [args for _, args in tasks], inputs, bar=bar) if tasks else []
+
+
+def _by_model(tasks: list, runs: list, models) -> dict:
+    """model -> its runs among ``runs`` (those of ``tasks``, in order), for each of ``models``."""
+    return {m: [run for (owner, _), run in zip(tasks, runs) if owner == m] for m in models}
 
 
 def _reference_key(reference) -> dict:

@@ -66,7 +66,8 @@ def test_a_rough_model_runs_one_pilot_and_its_runs_start_from_the_pilots_particl
     laplace = laplace_reference(PRIORS, OPTIMUM, 0.01 * np.eye(2))
     jobs = {"smooth": (0, smooth_post, laplace, 0), "rough": (1, rough_post, laplace, 0)}
     seeds = np.random.SeedSequence(4)
-    out, pilots = cmp.piloted(jobs, ["rough"], CompareConfig(), seeds, SerialExecutor())
+    out, pilots, alongside = cmp.piloted(jobs, ["rough"], CompareConfig(), seeds, SerialExecutor())
+    assert alongside == {}
     assert out["smooth"] is jobs["smooth"]
     assert list(pilots) == ["rough"]
     assert [(post, reference, seed, rule) for post, reference, seed, rule in calls] == \
@@ -105,6 +106,37 @@ def test_the_evidence_of_a_rough_model_records_its_pilot_and_smooth_runs_stay_as
         for reference in references:
             np.testing.assert_allclose(reference.sample(np.random.default_rng(0), 20000).mean(axis=0), centre,
                                        atol=0.01)
+
+
+class Waves(SerialExecutor):
+    """A serial executor that records each map's jobs: (posterior, min_moved rule) per SMC run."""
+
+    def __init__(self):
+        self.waves = []
+
+    def map(self, fn, *iterables, bar=None, done=None):
+        self.waves.append([(job[0], job[4]) for job in iterables[0]])
+        return super().map(fn, *iterables, bar=bar, done=done)
+
+
+@pytest.mark.parametrize(("early_stop", "decisive", "first"), [(None, None, 3), (cmp.EARLY_STOP_NATS, (5.0, 3.0), 2)])
+def test_the_smooth_models_first_runs_share_the_pilots_wave(monkeypatch, early_stop, decisive, first):
+    """The pilot runs first, then in the same map the smooth model's first wave (all its repeats
+    without early stopping; :data:`~bayesbeam.comparison.FIRST_WAVE` with it and a decisive rule);
+    the rough model's repeats follow, and every run is the one run without the sharing."""
+    calls = []
+    monkeypatch.setattr(cmp, "smc_job", recording_smc(calls))
+    fits = optimised({"q1": False, "q3": True})
+    q1, q3 = fits["q1"][0].posterior, fits["q3"][0].posterior
+    executor = Waves()
+    evidences, _ = cmp.model_evidence(fits, CompareConfig(early_stop=early_stop), np.random.SeedSequence(4),
+                                      executor, as_progress(None), decisive=decisive)
+    assert executor.waves[0] == [(q3, MIN_MOVED)] + [(q1, None)] * first
+    assert executor.waves[1] == [(q3, None)] * len(executor.waves[1]) and executor.waves[1]
+    ran = [(id(post), seed) for post, _, seed, rule in calls if rule is None]
+    seeds = np.random.SeedSequence(4)
+    assert sorted(ran) == sorted((id(fits[m][0].posterior), cmp._seed(seeds, i * 1000 + r))
+                                 for i, m in enumerate(fits) for r in range(len(evidences[m].runs)))
 
 
 def test_roughness_counts_only_along_a_coordinate_the_reference_centres_on_the_optimum():
@@ -163,8 +195,8 @@ def test_on_a_rippled_posterior_the_piloted_evidence_matches_the_analytic_value(
     covariance, rough = laplace_covariance_and_roughness(post, crest)
     reference = laplace_reference(PRIORS, crest, covariance)
     assert cmp.rough_where_centred(SimpleNamespace(rough=rough), reference)
-    jobs, _ = cmp.piloted({"rippled": (0, post, reference, 0)}, ["rippled"], CompareConfig(),
-                               np.random.SeedSequence(7), SerialExecutor())
+    jobs, _, _ = cmp.piloted({"rippled": (0, post, reference, 0)}, ["rippled"], CompareConfig(),
+                             np.random.SeedSequence(7), SerialExecutor())
     evidences, _ = cmp._evidence(jobs, CompareConfig(early_stop=None), np.random.SeedSequence(7), SerialExecutor())
     assert abs(evidences["rippled"].log_z - post.log_z()) < 0.3, (evidences["rippled"].log_z, post.log_z())
 
