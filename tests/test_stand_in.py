@@ -12,7 +12,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from bayesbeam.diagnosis import STAND_IN_WHY, Diagnosis, Trial, _trial_entry, paragraph, stand_in
+from bayesbeam.diagnosis import STAND_IN_WHY, Diagnosis, Trial, _trial_entry, final_stand_ins, paragraph, stand_in
 from bayesbeam.io import Sensor, TipBody
 from tests.inference import cases
 
@@ -113,12 +113,15 @@ def _result(name, log_z, rec, effect=None, median=None):
                            values=lambda: draws)
 
 
-def diagnosis(effect, median):
+def diagnosis(effect, median, final_median=None):
+    """A diagnosis that added ``effect`` about ``median``; with ``final_median``, its final model
+    (the same spec fitted again, as after a damping re-check) holds it about that value instead."""
     rec = recording()
     base = _result("q1", 100.0, rec)
     trial = Trial(1, effect, _result(f"q1+{effect}", 400.0, rec, effect, median), _map(1.0), 300.0, 0.2,
                   decisive=True, improved=True, added=True)
-    return Diagnosis(base, _map(2.0), [], [trial], trial.result, trial.mismatch, None, 1.0)
+    final = trial.result if final_median is None else _result(f"q1+{effect}", 410.0, rec, effect, final_median)
+    return Diagnosis(base, _map(2.0), [], [trial], final, trial.mismatch, None, 1.0)
 
 
 def test_a_stand_in_is_marked_in_its_entry_and_named_as_such_in_the_summary():
@@ -126,7 +129,7 @@ def test_a_stand_in_is_marked_in_its_entry_and_named_as_such_in_the_summary():
     entry = _trial_entry(d.trials[0], None)
     assert entry["added"] and entry["stand_in"]["parameter"] == "m_s_accel_tip"
     assert entry["stand_in"]["median"] == pytest.approx(0.080, rel=0.01)   # 100 draws of sd(log) 0.01
-    text = paragraph(d, [entry], {})
+    text = paragraph(d, [entry], final_stand_ins(d))
     assert "Stand-in, not a finding: sensor_mass's m_s_accel_tip" in text
     assert "a structural mismatch the catalogue cannot name" in text
     assert "Missing physics found" not in text and "No missing physics the set-up allows was found" in text
@@ -136,7 +139,7 @@ def test_an_effect_within_the_set_up_is_a_finding():
     d = diagnosis("sensor_mass", 0.0065)
     entry = _trial_entry(d.trials[0], None)
     assert entry["stand_in"] is None
-    text = paragraph(d, [entry], {})
+    text = paragraph(d, [entry], final_stand_ins(d))
     assert "Missing physics found: sensor_mass at accel_tip." in text and "Stand-in" not in text
 
 
@@ -150,9 +153,30 @@ def test_the_reports_lead_keeps_a_stand_in_apart_from_the_findings(median, words
     entry = _trial_entry(d.trials[0], None)
     model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 400.0}
     summary = {"baseline": {**model, "model": "q1"}, "unexplained": False, "candidates": [entry],
-               "final": {**model, "model": "q1+sensor_mass", "parameters": entry["parameters"]}}
+               "final": {**model, "model": "q1+sensor_mass", "parameters": entry["parameters"]},
+               "final_stand_ins": final_stand_ins(d)}
     missing = lead(summary)[0]
     assert words in missing and not_words not in missing
+
+
+@pytest.mark.parametrize(("trial_median", "final_median"), [(0.080, 0.0065), (0.0065, 0.080)])
+def test_the_verdict_is_the_final_models_and_a_change_from_the_trials_is_said(trial_median, final_median):
+    """A sensor mass 80 g (a stand-in on a stated 6 g sensor) as fitted in its round and 6.5 g in
+    the final model is a finding, and the other way round a stand-in: the verdict is the final
+    posterior's, the trial's stays in its entry, and the paragraph says the verdict moved."""
+    d = diagnosis("sensor_mass", trial_median, final_median)
+    entry = _trial_entry(d.trials[0], None)
+    verdicts = final_stand_ins(d)
+    assert (entry["stand_in"] is not None) == (trial_median > 0.01)
+    assert ("sensor_mass" in verdicts) == (final_median > 0.01)
+    text = paragraph(d, [entry], verdicts)
+    if final_median > 0.01:
+        assert verdicts["sensor_mass"]["median"] == pytest.approx(final_median, rel=0.01)
+        assert "Stand-in, not a finding: sensor_mass's m_s_accel_tip = 0.08" in text
+        assert "As fitted in round 1, sensor_mass lay within what the set-up allows" in text
+    else:
+        assert "Missing physics found: sensor_mass at accel_tip." in text and "Stand-in, not a finding" not in text
+        assert "As fitted in round 1, sensor_mass was a stand-in (m_s_accel_tip = 0.08" in text
 
 
 # ---------------------------------------------------------------------------- an effect given with the baseline
@@ -167,18 +191,17 @@ def given(median):
 def test_an_effect_given_with_the_baseline_is_judged_by_the_same_rule(median, expected):
     """The set-up bounds a sensor mass the user named as it bounds one the diagnosis adds: 80 g on
     a stated 6 g accelerometer is a stand-in whether or not the catalogue search put it there."""
-    from bayesbeam.diagnosis import given_stand_ins
     from bayesbeam.report.diagnosis import lead
 
     d = given(median)
-    verdicts = given_stand_ins(d)
+    verdicts = final_stand_ins(d)
     assert ("sensor_mass" in verdicts) == expected
     text = paragraph(d, [], verdicts)
     assert ("Stand-in, not a finding: sensor_mass's m_s_accel_tip" in text) == expected
     model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 100.0}
     summary = {"baseline": {**model, "model": "q1+sensor_mass"}, "unexplained": False, "candidates": [],
-               "final": {**model, "model": "q1+sensor_mass"}, "given_stand_ins": verdicts}
-    assert ("Not a finding: sensor_mass is a stand-in" in lead(summary)[0]) == expected
+               "final": {**model, "model": "q1+sensor_mass"}, "final_stand_ins": verdicts}
+    assert ("Not a finding: sensor_mass at accel_tip is a stand-in" in lead(summary)[0]) == expected
 
 
 def _base(f_b: float, m_b: float) -> dict:
@@ -269,11 +292,11 @@ def test_added_mains_pickup_is_reported_with_its_fixed_frequency(case, words):
     d = _mains_diagnosis(mains_record(case))
     entry = _trial_entry(d.trials[0], None)
     assert entry["parameters"] == {} and (entry["stand_in"] is not None) == (case == "null")
-    text = paragraph(d, [entry], {})
+    text = paragraph(d, [entry], final_stand_ins(d))
     assert "f_mains = 50 Hz (fixed): added" in text and words in text
     model = {"rms_standardized_residual": 1.0, "flags": 0, "log_evidence": 400.0}
     report = {"baseline": {**model, "model": "q1"}, "unexplained": False, "candidates": [entry],
-              "final": {**model, "model": "q1+mains_lines", "parameters": {}}}
+              "final": {**model, "model": "q1+mains_lines", "parameters": {}}, "final_stand_ins": final_stand_ins(d)}
     first = lead(report)[0]
     assert ("mains_lines is a stand-in" in first) == (case == "null") and ", ." not in first
 

@@ -115,10 +115,10 @@ def lead(summary: dict) -> list[str]:
 
 
 def stand_ins(summary: dict) -> list[tuple[str, dict]]:
-    """(effect, its stand-in verdict) of every added effect and every given one whose posterior
-    median the set-up rules out (``diagnose.stand_in``: parameter, median, allowed, unit, why)."""
-    added = [(_named(c), c["stand_in"]) for c in summary["candidates"] if c["added"] and c.get("stand_in")]
-    return added + list(summary.get("given_stand_ins", {}).items())
+    """(effect in words, its stand-in verdict) of every effect of the final model, added or given,
+    whose posterior median there the set-up rules out (diagnosis.json's ``final_stand_ins``:
+    parameter, median, allowed, unit, why, label)."""
+    return [(v["label"], v) for v in summary["final_stand_ins"].values()]
 
 
 def _stand_in_sentence(summary) -> str:
@@ -135,7 +135,7 @@ def _found_sentence(summary) -> str:
         final = summary["final"].get("parameters", {})
         found = "; ".join(", ".join([f"{_effect_words(c['effect'])} ({_named(c)})"]
                                     + [_estimate(name, final.get(name, q)) for name, q in c["parameters"].items()])
-                          for c in added if not c.get("stand_in"))
+                          for c in added if c["effect"] not in summary["final_stand_ins"])
         if found:
             return f"What the damping model {base} left out of this recording: {found}."
         return f"No missing physics the set-up allows was found in what the damping model {base} left out."

@@ -47,7 +47,8 @@ def unexplained_summary(regions=None, modes=None) -> dict:
                  "delta_log_evidence": 40.0, "delta_log_evidence_sd": 0.2, "decisive": True}
     return {"recording": "rec", "baseline": model_entry("q1", -100.0, 3.0, 20),
             "final": {**model_entry("q1+axial_load", -60.0, 2.0, 12), "parameters": {}},
-            "candidates": [candidate], "added": ["axial_load"], "stand_ins": ["axial_load"], "given_stand_ins": {},
+            "candidates": [candidate], "added": ["axial_load"], "stand_ins": ["axial_load"],
+            "final_stand_ins": {"axial_load": {**STAND_IN, "label": "axial_load"}},
             "unexplained": bool(regions), "unexplained_regions": regions, "not_beam_physics": [],
             "maps": {"final": {"modes": modes}}, "damping_recheck": None,
             "summary": "The diagnosis's own paragraph."}
