@@ -69,7 +69,7 @@ import numpy as np
 
 from bayesbeam.checkpoint import NOTHING_SAVED, Checkpoint
 from bayesbeam.checks.discrepancy import ALPHA, PRACTICAL_SHARE, Mismatch, locate, share_words
-from bayesbeam.checks.signatures import LINE_EFFECTS, PLACES, rank_effects
+from bayesbeam.checks.signatures import PLACES, rank_effects
 from bayesbeam.checks.survey import survey
 from bayesbeam.comparison import (
     DEFAULT_MODELS,
@@ -279,7 +279,7 @@ def diagnose(rec, model: str | None = None, config: DiagnoseConfig | None = None
         ranking = rank_effects(current.problem.posterior, _draws(current), mismatch, config.catalogue, executor,
                                quiet=not beam_regions(mismatch))
         rankings.append(ranking)
-        if not beam_regions(mismatch) and ranking.p_value >= ALPHA and not pickup_supported(ranking):
+        if ranking.nothing_left:
             say("nothing left to explain: no beam-physics region flagged, projected mismatch insignificant")
             break
         partners = partner_effects(last_added) if last_added else set()
@@ -674,13 +674,6 @@ def input_shift(mismatch: Mismatch) -> set[str]:
     against that prediction, cannot see it.
     """
     return {"measurement_delay"} if (mismatch.phase.get("force") or {}).get("significant") else set()
-
-
-def pickup_supported(ranking) -> bool:
-    """Whether the screen supports a pickup line (:data:`~bayesbeam.checks.signatures.LINE_EFFECTS`):
-    the map labels such a line "not beam physics" and the mode features do not see it, so it is
-    something to explain only through its own candidate."""
-    return any(c.supported and c.effect in LINE_EFFECTS for c in ranking.candidates)
 
 
 def amplitude_dependence(mismatch: Mismatch) -> set[str]:

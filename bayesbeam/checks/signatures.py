@@ -254,6 +254,8 @@ class Ranking:
     dof: int
     p_value: float                  # of chi2_0 under "the baseline is right"
     notes: list = field(default_factory=list)
+    #: nothing is left to explain (:func:`rank_effects`' quiet rule): the beam effects were not scanned
+    nothing_left: bool = False
 
     @property
     def best(self) -> Candidate | None:
@@ -295,7 +297,8 @@ def rank_effects(posterior, draws: np.ndarray, mismatch: Mismatch, effects=None,
         why = (f"the map flags no beam-physics region, the projected mismatch is insignificant and no pickup "
                f"line is supported: nothing is left to explain, and the {len(screened)} beam-effect signature(s) "
                f"were not scanned")
-        return Ranking(line_candidates, space.chi2_0, dof, p0, [_mismatch_note(space.chi2_0, dof, p0), why])
+        return Ranking(line_candidates, space.chi2_0, dof, p0, [_mismatch_note(space.chi2_0, dof, p0), why],
+                       nothing_left=True)
     jobs = [(name, aug, parameter, posterior, theta, base_features, space, mismatch, level)
             for name, aug, parameter in screened]
     found = list((executor.map if executor is not None else map)(_candidate_job, jobs)) + line_candidates

@@ -143,13 +143,14 @@ def test_a_quiet_insignificant_mismatch_scans_no_beam_effect():
     assert [c.to_dict() for c in quiet.candidates] == [line.to_dict()]
     assert (quiet.chi2, quiet.dof, quiet.p_value) == (whole.chi2, whole.dof, whole.p_value)
     assert quiet.notes[0] == whole.notes[0] and "not scanned" in quiet.notes[-1]
+    assert quiet.nothing_left and not whole.nothing_left
 
 
 def test_a_significant_mismatch_is_screened_whole_on_a_quiet_map():
     """A significant projected mismatch is scanned whole whatever the map flags (a delay, which the
     map's regions may not show: the screen is what names it)."""
     quiet = rank_effects(*fitted("measurement_delay"), quiet=True)
-    assert quiet.p_value < 0.01
+    assert quiet.p_value < 0.01 and not quiet.nothing_left
     assert [c.to_dict() for c in quiet.candidates] == [c.to_dict() for c in ranking("measurement_delay").candidates]
 
 
