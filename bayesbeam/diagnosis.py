@@ -988,11 +988,9 @@ def final_stand_ins(d: Diagnosis) -> dict[str, dict]:
     (``effects=``, ``--effect``), judged on the final model's posterior.
 
     Not on the trial's: an effect's posterior moves as the effects added after it and the damping
-    re-check change the model around it. On the real steel record
-    (studies/real_steel_cantilever) the body added in round 1 sat tuned to mode 1 (f_a 6.6 Hz,
-    9.8 g: a stand-in there); beside the base added in round 2 the final model's body is a
-    heavily damped 150 g one at 0.9 Hz, another thing to judge. Each trial's own verdict stays
-    in its entry (``candidates[i].stand_in``)."""
+    re-check change the model around it (a body tuned to a mode in its round may settle elsewhere
+    beside a base added later). Each trial's own verdict stays in its entry
+    (``candidates[i].stand_in``)."""
     rec = d.baseline.problem.model.recording
     names = [e.name for e in d.final.problem.model.effects]
     bands = unresolved_bands(d.final) if "attachment" in names else None
