@@ -1285,8 +1285,9 @@ def stand_in_clause(verdict: dict) -> str:
 
 
 def _estimates(summary: dict) -> str:
-    """Posterior summaries (name -> mean, q05, q95, unit) in words: 'k_theta = 3473 N m/rad (90 %: ...)'."""
-    return ", ".join(f"{k} = {v['mean']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
+    """Posterior summaries (name -> q05, q50, q95, unit) in words: 'k_theta = 3473 N m/rad (90 %: ...)',
+    the median as every table of the package gives it (a skewed posterior's mean is not)."""
+    return ", ".join(f"{k} = {v['q50']:.4g} {v['unit']} (90 %: {v['q05']:.4g} to {v['q95']:.4g})"
                      for k, v in summary.items())
 
 

@@ -431,7 +431,7 @@ def _recheck(monkeypatch, log_z: dict, current="q2+root_compliance"):
     monkeypatch.setattr(dg, "summarise_comparison", fake_summary)
     monkeypatch.setattr(dg, "too_slow", lambda rec, spec, known: "dense" if spec.startswith("air+") else None)
     monkeypatch.setattr(dg, "posterior_summary", lambda result: {
-        "EI": {"mean": 44.0}, "k_theta": {"mean": 3500.0, "unit": "N m/rad", "q05": 3400.0, "q95": 3600.0}})
+        "EI": {"mean": 44.0}, "k_theta": {"mean": 3600.0, "unit": "N m/rad", "q05": 3400.0, "q50": 3500.0, "q95": 3900.0}})
     return dg.recheck_damping(None, _result(current, log_z[current]), ("root_compliance",), dg.DiagnoseConfig(),
                               None, None), asked
 
@@ -449,7 +449,7 @@ def test_the_damping_recheck_switches_only_on_decisive_evidence(monkeypatch):
     assert [(n.round, n.model) for n in recheck.not_fitted] == [(0, "air+root_compliance")]
     assert recheck.switched and recheck.best == "q1+root_compliance"
     sentence = _recheck_sentence(recheck)
-    assert "changes to q1+root_compliance" in sentence and "k_theta = 3500 N m/rad (90 %: 3400 to 3600)" in sentence
+    assert "changes to q1+root_compliance" in sentence and "k_theta = 3500 N m/rad (90 %: 3400 to 3900)" in sentence   # the median, not the mean
 
     log_z["q2+root_compliance"] = -104.0          # q1 ahead by 4 nats: not decisive
     recheck, _ = _recheck(monkeypatch, log_z)
