@@ -4,13 +4,11 @@ damping mechanisms at degree 5 against closed forms and the converged cubic.
 The analytic eigenvalue helpers also serve tests/physics/test_basis.py (Table 2 and the
 convergence order per degree) and the mechanism tests."""
 import numpy as np
-import pytest
 from scipy import linalg, optimize
 
 from bayesbeam.physics.assembly import BeamOperators
 from bayesbeam.physics.basis import SplineBasis
 from bayesbeam.physics.mechanisms import REGISTRY
-from bayesbeam.physics.mechanisms.spatial_hysteresis import _slope_rows, kernel, points_per_interval
 from bayesbeam.response.system import SecondOrderSystem
 
 
@@ -146,18 +144,3 @@ def test_spatial_hysteresis_at_degree_5_matches_the_converged_cubic():
     np.testing.assert_allclose(quintic.real / np.abs(quintic), cubic.real / np.abs(cubic), rtol=2e-5)
 
 
-@pytest.mark.parametrize("n, root", [(16, "clamped"), (5, "pinned")])
-@pytest.mark.parametrize("b", [0.01, 0.18, 1.0])
-def test_spatial_hysteresis_block_assembly_at_degree_5(n, root, b):
-    """The (p+1) x (p+1)-block assembly equals the dense bracket form G^T [diag(w Hw) - W H W] G
-    on the same Gauss rule (regrouped sums: 1e-13 of max |D| is round-off, measured <= 1.5e-15),
-    and doubling the Gauss points per interval moves D by less than 1e-8 relative (measured
-    <= 4e-15 here), the rule the cubic's points per interval are chosen by."""
-    basis = SplineBasis(1.0, n, root, degree=5)
-    d = REGISTRY["spatial_hysteresis"].damping(BeamOperators(basis, rho_a=1.0), {"a": 1.0, "b": b})
-    points = points_per_interval(basis.h, b)
-    for factor, bound in ((1, 1e-13), (2, 1e-8)):
-        x, w, g = _slope_rows(basis, factor * points)
-        h = kernel(x, x, 1.0, b)
-        dense = g.T @ (np.diag(w * (h @ w)) - w[:, None] * h * w[None, :]) @ g
-        assert np.abs(d - 0.5 * (dense + dense.T)).max() <= bound * np.abs(d).max()
