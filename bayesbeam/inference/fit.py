@@ -340,7 +340,7 @@ def choose_discretisation(rec, model, config: FitConfig, rng, log=None, start: d
     problem = prepare(rec, model, config, config.n_intervals or starting_rung(rec, model, config, log))
     if not (search or start):
         raise ValueError("choose_discretisation: a local optimisation alone (search=False) needs a start")
-    optimum = find_optimum(problem.posterior, rng, log=log) if search else None
+    optimum = find_optimum(problem.posterior, rng, log=log, ridges=start is None) if search else None
     for point in local_starts(problem.posterior, start):
         local = find_optimum(problem.posterior, rng, start=point, log=log)
         optimum = local if optimum is None or local.log_posterior > optimum.log_posterior else optimum
