@@ -77,7 +77,7 @@ MUTANTS = (
            ("tests/physics/mechanisms/test_fractional.py",),
            "fractional order nu -> 1 - nu (invisible at nu = 0.5)"),
     Mutant("spatial_first_interval", "bayesbeam/physics/mechanisms/spatial_hysteresis.py",
-           "density[k == 0] *= (u[k == 0] * b) ** 2", "density[k == 0] *= (1.05 * u[k == 0] * b) ** 2",
+           "density[k == 0] *= (u[k == 0] / width) ** 2", "density[k == 0] *= (1.05 * u[k == 0] / width) ** 2",
            ("tests/physics/mechanisms/test_spatial_hysteresis.py",),
            "spatial hysteresis: the s^2 of F = s^2 Q on the first interval 10 % high"),
     Mutant("exponential_rate", "bayesbeam/physics/mechanisms/exponential.py",

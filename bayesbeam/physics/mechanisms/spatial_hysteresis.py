@@ -33,7 +33,9 @@ linear in s: :math:`F` is a polynomial of degree 2p - 1 in s there, and on the f
 :math:`F = s^2 Q(s)` with Q of degree 2p - 3 (each factor vanishes at s = 0). So the matrices
 :math:`F_k(s)` (entries :math:`F_{B_i B_j}`) are stored once per basis as Legendre coefficient
 matrices in s, interpolated from 2p (2p - 2 for Q) Chebyshev nodes at which each is computed
-exactly (Gauss-Legendre with p points on every piece, exact for its degree 2p - 2). A call only
+exactly (Gauss-Legendre with p points on every piece, exact for its degree 2p - 2). They are
+computed on the grid of unit spacing (the splines are the same functions of x/h on every grid,
+so :math:`F_k` scales as 1/h): a beam whose length is a parameter reuses them. A call only
 integrates the normal density against those polynomials,
 
 .. math:: D = a \sum_k \sum_j \mu_{kj}(b)\, C_{kj}, \qquad
@@ -88,8 +90,9 @@ def _difference_form(basis: SplineBasis, s: float) -> np.ndarray:
 
 
 class _Moments:
-    """The (a, b)-independent part of D for one basis: per offset k the 2p Legendre coefficient
-    matrices of F_k (of Q on k = 0, whose last two are zero), as rows of ``size**2``."""
+    """The (a, b)-independent part of D for one grid (N, root, degree) of unit spacing: per offset
+    k the 2p Legendre coefficient matrices of F_k (of Q on k = 0, whose last two are zero), as
+    rows of ``size**2``."""
 
     def __init__(self, basis: SplineBasis):
         h, n, p, size = basis.h, basis.n_intervals, basis.degree, basis.size
@@ -103,11 +106,11 @@ class _Moments:
             f = np.array([_difference_form(basis, (k + (tm + 1.0) / 2) * h) for tm in t])
             coefficients[k] = inverse @ f.reshape(len(t), -1)
         self.coefficients = coefficients.reshape(n * 2 * p, size * size)
-        self.h, self.n, self.p, self.size = h, n, p, size
+        self.n, self.p, self.size = n, p, size
 
-    def unit_matrix(self, b: float) -> np.ndarray:
-        """D for a = 1 (the kernel is the normal density of sd b)."""
-        width = self.h / b                                     # an interval, in units of b
+    def unit_matrix(self, b: float, h: float) -> np.ndarray:
+        """D for a = 1 (the kernel is the normal density of sd b) on the grid of spacing h."""
+        width = h / b                                          # an interval, in units of b
         reach = math.sqrt(2.0 * UNDERFLOW)                     # the kernel's reach, in units of b
         if not 0 < width < math.inf:        # b = inf: no kernel; b below 1e-308 h: D ~ a b^2 = 0
             return np.zeros((self.size, self.size))
@@ -120,16 +123,16 @@ class _Moments:
         k = index // parts
         u = (index[:, None] + (_S_NODES + 1.0) / 2) * step     # s / b at the Gauss points
         density = np.exp(-0.5 * u * u) * (_S_WEIGHTS * step / (2.0 * math.sqrt(2.0 * math.pi)))
-        density[k == 0] *= (u[k == 0] * b) ** 2                 # F = s^2 Q on the first interval
+        density[k == 0] *= (u[k == 0] / width) ** 2             # F = s^2 Q on the first interval
         t = 2.0 * (u / width - k[:, None]) - 1.0               # Legendre variable on interval k
         rows = legendre.legvander(t, 2 * self.p - 1) * density[..., None]
         mu = np.add.reduceat(rows.sum(axis=1), np.arange(0, count, parts), axis=0)
-        return (mu.ravel() @ self.coefficients[:mu.size]).reshape(self.size, self.size)
+        return (mu.ravel() @ self.coefficients[:mu.size]).reshape(self.size, self.size) / h
 
 
 @lru_cache(maxsize=8)
-def _moments(basis: SplineBasis) -> _Moments:
-    return _Moments(basis)
+def _moments(n_intervals: int, root: str, degree: int) -> _Moments:
+    return _Moments(SplineBasis(float(n_intervals), n_intervals, root, degree))
 
 
 def kernel(x: np.ndarray, xi: np.ndarray, a: float, b: float) -> np.ndarray:
@@ -151,4 +154,6 @@ class SpatialHysteresis(Mechanism):
             raise ValueError(f"spatial_hysteresis: b = {values['b']!r} must be > 0 m")
 
     def damping(self, ops, values):
-        return values["a"] * _moments(ops.basis).unit_matrix(values["b"])
+        basis = ops.basis
+        moments = _moments(basis.n_intervals, basis.root, basis.degree)
+        return values["a"] * moments.unit_matrix(values["b"], basis.h)

@@ -123,12 +123,27 @@ def test_the_offsets_skipped_for_a_narrow_kernel_hold_nothing(monkeypatch, n, b)
     from bayesbeam.physics.mechanisms import spatial_hysteresis as module
 
     basis = SplineBasis(1.3, n, degree=5)
-    moments = module._moments(basis)
+    moments = module._moments(basis.n_intervals, basis.root, basis.degree)
     assert math.ceil(math.sqrt(2 * module.UNDERFLOW) * b / basis.h) < n
-    skipped = moments.unit_matrix(b)
+    skipped = moments.unit_matrix(b, basis.h)
     monkeypatch.setattr(module, "UNDERFLOW", 1e6)
-    full = moments.unit_matrix(b)
+    full = moments.unit_matrix(b, basis.h)
     assert np.abs(skipped - full).max() <= 1e-14 * np.abs(full).max()
+
+
+def test_beams_of_any_length_share_the_grid_polynomials():
+    """The stored polynomials are the unit grid's, scaled by 1/h: a free length (a parameter of
+    the fit) costs no new precomputation, and D on a beam of length l equals the dense form on
+    that beam (the assembly test's bound)."""
+    from bayesbeam.physics.mechanisms import spatial_hysteresis as module
+
+    module._moments.cache_clear()
+    for length in (0.7093, 0.75, 0.8091):
+        basis = SplineBasis(length, 16, degree=3)
+        d = MECH.damping(BeamOperators(basis, rho_a=1.0), {"a": 0.3, "b": 0.05})
+        ref = dense_bracket_form(basis, 0.3, 0.05)
+        assert np.abs(d - ref).max() <= 1e-12 * np.abs(ref).max()
+    assert module._moments.cache_info().misses == 1
 
 
 def test_damping_is_linear_in_a_and_repeatable():
