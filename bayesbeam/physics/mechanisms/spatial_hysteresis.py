@@ -31,7 +31,7 @@ equal, and
 pieces on which both factors are single polynomials of degree p - 1 in (x, s), with limits
 linear in s: :math:`F` is a polynomial of degree 2p - 1 in s there, and on the first interval
 :math:`F = s^2 Q(s)` with Q of degree 2p - 3 (each factor vanishes at s = 0). So the matrices
-:math:`F_k(s)` (entries :math:`F_{B_i B_j}`) are stored once per basis as Legendre coefficient
+:math:`F_k(s)` (entries :math:`F_{B_i B_j}`) are stored once per grid as Legendre coefficient
 matrices in s, interpolated from 2p (2p - 2 for Q) Chebyshev nodes at which each is computed
 exactly (Gauss-Legendre with p points on every piece, exact for its degree 2p - 2). They are
 computed on the grid of unit spacing (the splines are the same functions of x/h on every grid,
