@@ -151,14 +151,15 @@ def find_optimum(post: LogPosterior, rng: np.random.Generator, *, scan_points: i
         if x is not None:
             full, (cov, rough) = _polished(post, counter, x)
             _say(log, "restarted polish moved the optimum")
-        ridge = _ridge_start(post, counter, neutral, guess, scan_points) if ridges else None
-        if ridge is not None:
-            trial, (trial_cov, trial_rough) = _polished(
-                post, counter, _nelder_mead(counter, ridge, _simplex_edges(_search_scale(counter, ridge, bounds), bounds)))
-            if post(trial) > post(full):
-                full, cov, rough = trial, trial_cov, trial_rough
-                _say(log, "the polish from an effect's EI ridge found a higher optimum")
     value = post(full)
+    ridge = _ridge_start(post, counter, neutral, guess, scan_points) if ridges and start is None and k > 1 else None
+    if ridge is not None:
+        trial, (trial_cov, trial_rough) = _polished(
+            post, counter, _nelder_mead(counter, ridge, _simplex_edges(_search_scale(counter, ridge, bounds), bounds)))
+        trial_value = post(trial)
+        if trial_value > value:
+            full, value, cov, rough = trial, trial_value, trial_cov, trial_rough
+            _say(log, "the polish from an effect's EI ridge found a higher optimum")
     _say(log, f"optimum: log posterior {value:.6g} ({counter.calls} evaluations)")
     return Optimum(full, value, cov, counter.calls, rough)
 
