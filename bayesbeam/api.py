@@ -352,17 +352,21 @@ class Diagnosis:
 
     def summary(self):
         """A row per model fitted: the baseline, each candidate (log Bayes factor against the
-        model it was added to, whether it was decisive, improved the map and was added), the final."""
+        model it was added to, whether it was decisive, improved the map and was added, and
+        whether its effect was a stand-in as fitted), the final (its effects that are stand-ins
+        there, judged on its own posterior)."""
+        from bayesbeam.diagnosis import stand_in_words
+
         s = self.summary_dict
         rows = [{"model": s["baseline"]["model"], "role": "baseline", "log Z (nats)": s["baseline"]["log_evidence"],
                  "RMS std. residual": s["baseline"]["rms_standardized_residual"]}]
         for c in s["candidates"]:
             rows.append({"model": c["model"], "role": f"candidate {c['label']}", "ln B (nats)": c["delta_log_evidence"],
                          "ln B sd (nats)": c["delta_log_evidence_sd"], "decisive": c["decisive"],
-                         "map improved": c["map_improved"], "added": c["added"], "stand-in": c["stand_in"],
+                         "map improved": c["map_improved"], "added": c["added"], "stand-in": stand_in_words(c["stand_in"]),
                          "RMS std. residual": c["rms_standardized_residual"]})
         rows.append({"model": s["final"]["model"], "role": "final", "log Z (nats)": s["final"]["log_evidence"],
-                     "RMS std. residual": s["final"]["rms_standardized_residual"]})
+                     "stand-in": _final_stand_ins(s), "RMS std. residual": s["final"]["rms_standardized_residual"]})
         return _table(rows, "model")
 
     def parameters(self):
@@ -384,6 +388,17 @@ class Diagnosis:
         result = _live(self.result, "write", "the diagnosis's fitted models", "diagnosis",
                        "copy its folder, or run bayesbeam.diagnose() again.")
         return write_diagnosis(result, self.summary_dict, _folder(folder, overwrite))
+
+
+def _final_stand_ins(summary: dict) -> str | None:
+    """The final row's stand-in cell: 'no', or each stand-in effect of the final model with its
+    parameter and what rules it out; None for a diagnosis.json without the verdicts."""
+    from bayesbeam.diagnosis import stand_in_clause
+
+    if "final_stand_ins" not in summary:
+        return None
+    verdicts = summary["final_stand_ins"].values()
+    return "; ".join(f"{v['label']}: {v['parameter']} {stand_in_clause(v)}" for v in verdicts) or "no"
 
 
 def diagnose(recording, checkpoint=None, **options_) -> Diagnosis:

@@ -1269,6 +1269,12 @@ def _stand_in_sentence(effect: str, verdict: dict) -> str:
             f"catalogue cannot name.")
 
 
+def stand_in_words(verdict: dict | None) -> str:
+    """A stand-in verdict in a table's cell: 'no', or 'yes: ' with its parameter and what rules
+    the median out (:func:`stand_in_clause`)."""
+    return "no" if verdict is None else f"yes: {verdict['parameter']} {stand_in_clause(verdict)}"
+
+
 def stand_in_clause(verdict: dict) -> str:
     """What rules a stand-in's value out, in words: inside a beam mode's unresolved band (a tuned
     body), outside the range the set-up allows, or (no range: mains pickup) no persistent line at

@@ -155,6 +155,23 @@ def test_a_diagnosis_folder_reopens():
         reopened.plot_mismatch()
 
 
+def test_a_reopened_diagnosis_names_its_stand_ins():
+    """The stand-in column: each candidate's verdict as fitted in its round, and the final row's
+    effects that are stand-ins in the final model (the real-steel diagnosis: a body tuned inside
+    mode 1's band, and a sensor mass past what the set-up allows)."""
+    folder = Path(__file__).parents[1] / "studies/real_steel_cantilever/diagnose"
+    summary = json.loads((folder / "diagnosis.json").read_text())
+    table = bayesbeam.load(folder).summary()
+    candidates = table.iloc[1:-1]["stand-in"]
+    assert [cell.startswith("yes: ") for cell in candidates] == [c["stand_in"] is not None for c in summary["candidates"]]
+    assert any(cell.startswith("yes: f_a (posterior median) lies within beam mode 1") for cell in candidates)
+    final = table.iloc[-1]["stand-in"].split("; ")
+    assert [cell.split(":")[0] for cell in final] == [v["label"] for v in summary["final_stand_ins"].values()]
+    assert sorted(summary["final_stand_ins"]) == ["attachment", "sensor_mass"]
+    assert "m_s (posterior median) lies outside the 0.002358 to 0.01427 kg the set-up allows" in table.iloc[-1]["stand-in"]
+    assert bayesbeam.load(DIAGNOSIS).summary().iloc[-1]["stand-in"] == "no"
+
+
 def test_load_refuses_a_folder_that_is_not_an_output(tmp_path):
     with pytest.raises(ValueError, match="no diagnosis.json.*Fix"):
         bayesbeam.load(tmp_path)

@@ -98,6 +98,7 @@ def checks_table(summary: dict) -> str:
 def diagnosis_table(d: dict) -> str:
     """Every augmented model the diagnosis fitted: its evidence against the model it extends, the
     added effect's estimate, the map's RMS and flags, the decision and whether it is a stand-in."""
+    from bayesbeam.diagnosis import stand_in_words
     from bayesbeam.report.markdown import markdown_table, median_and_interval
 
     rows = [["baseline", d["baseline"]["model"], "", "", f"{d['baseline']['rms_standardized_residual']:.2f}",
@@ -107,17 +108,10 @@ def diagnosis_table(d: dict) -> str:
         rows.append([str(c["round"]), c["model"], f"{c['delta_log_evidence']:.1f} +- {c['delta_log_evidence_sd']:.2g}",
                      estimate, f"{c['rms_standardized_residual']:.2f}", str(c["flags"]),
                      "added" if c["added"] else ("not decisive" if not c["decisive"] else "map not improved"),
-                     stand_in_cell(c["stand_in"])])
+                     stand_in_words(c["stand_in"])])
     head = ["round", "model", "ln B vs the model it extends", "effect's posterior median [90 %]", "RMS", "flags",
             "decision", "stand-in"]
     return markdown_table(head, rows)
-
-
-def stand_in_cell(verdict: dict | None) -> str:
-    """The diagnosis table's stand-in column: no, or what rules the median out (``diagnosis.stand_in_clause``)."""
-    from bayesbeam.diagnosis import stand_in_clause
-
-    return "no" if verdict is None else f"yes: {verdict['parameter']} {stand_in_clause(verdict)}"
 
 
 def setup_table(summary: dict) -> str:
