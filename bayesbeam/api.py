@@ -194,7 +194,8 @@ def check(recording) -> Check:
 # ---------------------------------------------------------------------------- fit
 @dataclass
 class Fit:
-    """One model's posterior by emcee (``bayesbeam fit``)."""
+    """One model's posterior by emcee (``bayesbeam fit``). ``idata`` is None when reopened from a
+    folder without its posterior.nc."""
 
     summary_dict: dict
     idata: object
@@ -213,7 +214,9 @@ class Fit:
 
     def plot_corner(self, names: list[str] | None = None):
         """Corner plot of the model parameters, with the truth when the recording has one."""
-        return _corner({self.summary_dict["model"]: self.idata}, names, _units(self.idata), self.truth,
+        idata = _live(self.idata, "plot_corner", "the posterior draws (posterior.nc)", "fit without that file",
+                      "run the fit again (its folder's summary.json names the recording and model).")
+        return _corner({self.summary_dict["model"]: idata}, names, _units(idata), self.truth,
                        f"posterior of {self.summary_dict['model']}")
 
     def plot_trace(self):
@@ -469,8 +472,15 @@ def _posteriors(folder: Path) -> dict:
 
 
 def _load_fit(folder: Path) -> Fit:
+    """A fit's folder; its posterior draws are None where posterior.nc was not kept (a large one is
+    often left out of a repository), and what needs them says so."""
     summary = _json(folder / "summary.json")
-    return Fit(summary, _netcdf(folder / "posterior.nc"), truth=_truths_of(summary))
+    if not {"model", "parameters", "noise"} <= summary.keys():
+        raise ValueError(f"{folder / 'summary.json'}: not written by bayesbeam fit (no 'model', 'parameters' "
+                         f"and 'noise' keys). Fix: give a folder written by bayesbeam check, fit, compare or "
+                         f"diagnose (their --out).")
+    posterior = folder / "posterior.nc"
+    return Fit(summary, _netcdf(posterior) if posterior.is_file() else None, truth=_truths_of(summary))
 
 
 def _load_comparison(folder: Path) -> Comparison:

@@ -172,6 +172,44 @@ def test_a_reopened_diagnosis_names_its_stand_ins():
     assert bayesbeam.load(DIAGNOSIS).summary().iloc[-1]["stand-in"] == "no"
 
 
+ROOT = Path(__file__).parents[1]
+#: folders with a summary.json of a study's own, not a fit's
+STUDY_SUMMARIES = [ROOT / "studies/paper_reproduction"]
+
+
+def output_folders() -> list[Path]:
+    """Every folder under studies/ and data/ that holds what check, fit, compare or diagnose write."""
+    names = ("comparison.json", "diagnosis.json", "summary.json", "check.json")
+    found = {p.parent for root in ("studies", "data") for n in names for p in (ROOT / root).rglob(n)}
+    return sorted(found - set(STUDY_SUMMARIES))
+
+
+@pytest.mark.parametrize("folder", output_folders(), ids=lambda f: str(f.relative_to(ROOT)))
+def test_every_committed_output_folder_reopens(folder):
+    """A user reopens any committed study output with bayesbeam.load: its tables must build from the
+    JSON the present code reads (a folder written by an older version fails here until rerun)."""
+    reopened = bayesbeam.load(folder)
+    assert len(reopened.summary()) > 0
+    if hasattr(reopened, "parameters"):
+        assert "unit" in reopened.parameters().columns
+
+
+def test_a_fit_folder_without_its_posterior_draws_reopens(tmp_path):
+    """A fit's large posterior.nc is often left out of a repository (studies/fit_examples/real_steel_q1):
+    its summary still reopens, and the corner plot says what it needs."""
+    source = ROOT / "studies/fit_examples/paper_q3_hammer"
+    (tmp_path / "summary.json").write_text((source / "summary.json").read_text())
+    reopened = bayesbeam.load(tmp_path)
+    assert reopened.summary().equals(bayesbeam.load(source).summary()) and reopened.idata is None
+    with pytest.raises(ValueError, match=r"posterior\.nc.*Fix"):
+        reopened.plot_corner()
+
+
+def test_load_refuses_a_summary_json_that_is_not_a_fits():
+    with pytest.raises(ValueError, match="not written by bayesbeam fit.*Fix"):
+        bayesbeam.load(STUDY_SUMMARIES[0])
+
+
 def test_load_refuses_a_folder_that_is_not_an_output(tmp_path):
     with pytest.raises(ValueError, match="no diagnosis.json.*Fix"):
         bayesbeam.load(tmp_path)
