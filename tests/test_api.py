@@ -135,8 +135,9 @@ def test_fit_object(recording, tmp_path):
         reopened.plot_trace()
 
 
+ROOT = Path(__file__).parents[1]
 #: a diagnosis the model-comparison study wrote (its posteriors are committed: see .gitignore)
-DIAGNOSIS = Path(__file__).parents[1] / "studies/model_comparison/paper_rootcomp_hammer/diagnose"
+DIAGNOSIS = ROOT / "studies/model_comparison/paper_rootcomp_hammer/diagnose"
 
 
 def test_a_diagnosis_folder_reopens():
@@ -159,7 +160,7 @@ def test_a_reopened_diagnosis_names_its_stand_ins():
     """The stand-in column: each candidate's verdict as fitted in its round, and the final row's
     effects that are stand-ins in the final model (the real-steel diagnosis: a body tuned inside
     mode 1's band, and a sensor mass past what the set-up allows)."""
-    folder = Path(__file__).parents[1] / "studies/real_steel_cantilever/diagnose"
+    folder = ROOT / "studies/real_steel_cantilever/diagnose"
     summary = json.loads((folder / "diagnosis.json").read_text())
     table = bayesbeam.load(folder).summary()
     candidates = table.iloc[1:-1]["stand-in"]
@@ -172,7 +173,6 @@ def test_a_reopened_diagnosis_names_its_stand_ins():
     assert bayesbeam.load(DIAGNOSIS).summary().iloc[-1]["stand-in"] == "no"
 
 
-ROOT = Path(__file__).parents[1]
 #: folders with a summary.json of a study's own, not a fit's
 STUDY_SUMMARIES = [ROOT / "studies/paper_reproduction"]
 
