@@ -411,7 +411,8 @@ def _convergence_section(results, summary) -> str:
               f"R-hat exceeds {R_HAT_MAX:g}. Acceptance: the mean fraction of accepted moves per tempering stage (its range over "
               f"stages).</p>" + _smc_table(results, summary)
             + "<h3>Discretisation check</h3><p>The optimum at the spline grid N used against the next finer "
-              "grid; a shift above the tolerance (in posterior sd) means the grid limits the estimates.</p>"
+              "grid; a shift above the tolerance (in posterior sd) means the grid limits the estimates, a change "
+              "of the log posterior at the optimum above its tolerance (in nats) that it biases the log evidence.</p>"
             + _discretisation_table(summary))
 
 
@@ -438,16 +439,18 @@ def _discretisation_table(summary) -> str:
     for m in summary["ranking"]:
         d = summary["models"][m]["discretisation_check"]
         name = max(d["shift_sd"], key=d["shift_sd"].get)
+        level = f"{d['level_change_nats']:+.3g} (tolerance {d['level_tolerance_nats']:g})" if "level_change_nats" in d else ""
         rows.append([esc(m), str(d["n_intervals"]) + (" (chosen)" if d["automatic"] else " (given)"),
                      str(d["refined_n_intervals"]), f"{d['max_shift_sd']:.3g} ({esc(name)})",
-                     str(d["tolerance_sd"]), flag(_check_word(d), not d["passed"])])
-    return table(["model", "N", "finer N", "largest shift [sd]", "tolerance [sd]", "check"], rows)
+                     str(d["tolerance_sd"]), level, flag(_check_word(d), not d["passed"])])
+    return table(["model", "N", "finer N", "largest shift [sd]", "tolerance [sd]",
+                  "log posterior change at the optimum [nats]", "check"], rows)
 
 
 def _check_word(check: dict) -> str:
     if check["passed"]:
         return "passed"
-    return "failed: stalled (the shift does not shrink with N)" if check.get("stalled") else "failed"
+    return "failed: stalled (the error does not shrink with N)" if check.get("stalled") else "failed"
 
 
 # ---------------------------------------------------------------------------- markdown

@@ -157,18 +157,29 @@ def test_the_ladder_stops_where_the_shift_stops_shrinking(monkeypatch, shifts, l
     whose shift is no smaller than the rung's below it stops, ``stalled``, and returns the rung
     below (the finer one was no closer to the limit) with that rung's check and the stalled
     check's shift."""
+    script = dict(zip(N_LADDERS[5], shifts))
+    chosen, record = _scripted_ladder(monkeypatch, {n: (shift, 0.0) for n, shift in script.items()})
+    assert chosen.model.n_intervals == record["n_intervals"] == last_n
+    assert record["stalled"] is stalled
+    assert record["max_shift_sd"] == script[last_n]
+    if stalled:
+        assert record["finer_max_shift_sd"] == script[N_LADDERS[5][N_LADDERS[5].index(last_n) + 1]]
+
+
+def _scripted_ladder(monkeypatch, script: dict):
+    """choose_discretisation's (problem, record) with the quintic ladder and each rung's check
+    scripted as N -> (largest shift in sd, level change in nats), passed by the package's rule."""
     from types import SimpleNamespace
 
     fit = importlib.import_module("bayesbeam.inference.fit")
-    script = dict(zip(N_LADDERS[5], shifts))
 
     def problem(n):
         return SimpleNamespace(model=SimpleNamespace(n_intervals=n, degree=5), posterior=_FlatPosterior())
 
     def check(coarse, finer, optimum, config, log=None):
-        shift = script[coarse.model.n_intervals]
-        return {"n_intervals": coarse.model.n_intervals, "max_shift_sd": shift,
-                "passed": shift < fit.SHIFT_TOLERANCE}, np.zeros(1)
+        shift, level = script[coarse.model.n_intervals]
+        return {"n_intervals": coarse.model.n_intervals, "max_shift_sd": shift, "level_change_nats": level,
+                "passed": shift < fit.SHIFT_TOLERANCE and abs(level) < fit.LEVEL_TOLERANCE}, np.zeros(1)
 
     optimum = SimpleNamespace(theta=np.zeros(1), covariance=np.eye(1), log_posterior=0.0)
     monkeypatch.setattr(fit, "prepare", lambda rec, model, config, n: problem(n))
@@ -176,11 +187,40 @@ def test_the_ladder_stops_where_the_shift_stops_shrinking(monkeypatch, shifts, l
     monkeypatch.setattr(fit, "find_optimum", lambda *args, **options: optimum)
     monkeypatch.setattr(fit, "_refinement_check", check)
     chosen, _, record = fit.choose_discretisation(None, "q1", FitConfig(), np.random.default_rng(1))
+    return chosen, record
+
+
+@pytest.mark.parametrize("script, last_n, stalled", [
+    ({8: (0.08, 7.9), 12: (0.01, 0.2)}, 12, False),             # level off at 8: climbs, passes at 12
+    ({8: (0.08, -2.0), 12: (0.01, -0.6), 16: (0.01, 0.1)}, 16, False),   # either sign; shrinking
+    ({8: (0.05, 2.0), 12: (0.01, 2.5)}, 8, True),               # the level change grows: roughness
+    ({8: (0.3, 0.1), 12: (0.05, 1.0), 16: (0.01, 0.1)}, 16, False),  # 3 x the shift tolerance, then 2 x the level's
+    ({8: (0.3, 0.1), 12: (0.05, 2.0), 16: (0.01, 0.1)}, 8, True),  # 4 x the level's is no smaller than 3 x
+])
+def test_the_ladder_climbs_until_the_level_settles_too(monkeypatch, script, last_n, stalled):
+    """A rung passes only when the finer grid moves the optimum by under SHIFT_TOLERANCE sd and the
+    log posterior there by under LEVEL_TOLERANCE nats; the stall rule compares the larger of the
+    two errors, each in multiples of its tolerance, with the rung's below."""
+    chosen, record = _scripted_ladder(monkeypatch, script)
     assert chosen.model.n_intervals == record["n_intervals"] == last_n
-    assert record["stalled"] is stalled
-    assert record["max_shift_sd"] == script[last_n]
-    if stalled:
-        assert record["finer_max_shift_sd"] == script[N_LADDERS[5][N_LADDERS[5].index(last_n) + 1]]
+    assert record["stalled"] is stalled and record["passed"] is not stalled
+
+
+def test_a_refinement_check_fails_on_a_level_change_alone(monkeypatch):
+    """The finer model's log posterior at the coarse optimum, a constant 0.6 nats above it with the
+    optimum unmoved: the shift passes, the check fails on the level; 0.4 nats passes."""
+    from types import SimpleNamespace
+
+    fit = importlib.import_module("bayesbeam.inference.fit")
+    monkeypatch.setattr(fit, "newton_shift", lambda post, theta, covariance: np.zeros(1))
+    coarse = SimpleNamespace(model=SimpleNamespace(n_intervals=8, degree=5), posterior=_FlatPosterior())
+    optimum = SimpleNamespace(theta=np.zeros(1), covariance=np.eye(1), log_posterior=-3.0)
+    for offset, passed in ((0.6, False), (-0.6, False), (0.4, True)):
+        finer = SimpleNamespace(model=SimpleNamespace(n_intervals=12, degree=5),
+                                posterior=lambda theta, offset=offset: -3.0 + offset)
+        record, _ = fit._refinement_check(coarse, finer, optimum, FitConfig())
+        assert record["max_shift_sd"] == 0.0 and record["passed"] is passed
+        assert record["level_change_nats"] == pytest.approx(offset) and record["level_tolerance_nats"] == 0.5
 
 
 class _FlatPosterior:
