@@ -418,10 +418,22 @@ def result_block(summary) -> str:
     return summary_markdown(summary) + "\n\n" + table4_markdown(summary)
 
 
+def comparison_sentence(comparison: dict) -> str:
+    """The README's sentence on the Bayesian comparison of the same recording, from the model
+    comparison study's comparison.json: the best model and its log Bayes factors over the rest."""
+    margins = [-comparison["models"][m]["log_bayes_factor_vs_best"] for m in comparison["ranking"][1:]]
+    runner_up = comparison["ranking"][1]
+    return (f"ranks {comparison['best']} first, by {margins[0]:.1f} nats over {runner_up} and by "
+            f"{min(margins[1:]):.1f}-{max(margins[1:]):.1f} nats over the rest")
+
+
 def blocks() -> dict[Path, dict[str, str]]:
-    """The README's generated block, from the committed summary.json."""
+    """The README's generated blocks, from the committed summary.json and the model comparison
+    study's comparison of the paper_q3_hammer example."""
     summary = json.loads((HERE / "summary.json").read_text())
-    return {HERE / "README.md": {"paper-reproduction": result_block(summary)}}
+    comparison = json.loads((HERE.parent / "model_comparison" / "paper_q3_hammer" / "comparison.json").read_text())
+    return {HERE / "README.md": {"paper-reproduction": result_block(summary),
+                                 "paper-reproduction-compare": comparison_sentence(comparison)}}
 
 
 def plot_drift(result, path):
